@@ -30,7 +30,8 @@ def count_cases(path):
         name = f"{case.get('classname', '')}.{case.get('name', '')}"
         bad = [c for c in case if c.tag in ("failure", "error", "skipped")]
         if bad:
-            failed.append(f"{name}: {bad[0].tag}: {(bad[0].get('message') or '').strip()[:200]}")
+            message = " | ".join((bad[0].get("message") or "").split("\n"))
+            failed.append(f"{name}: {bad[0].tag}: {message[:300]}")
         else:
             passed += 1
     return passed, failed

@@ -23,7 +23,7 @@ def main():
         case = ET.SubElement(suite, "testcase", classname="catkin_lint", name=package)
         if run.returncode != 0:
             failures += 1
-            ET.SubElement(case, "failure", message=report[-500:])
+            ET.SubElement(case, "failure", message=report)
     suite.set("failures", str(failures))
     ET.ElementTree(suite).write(output, encoding="unicode")
     return 1 if failures else 0

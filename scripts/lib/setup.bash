@@ -13,7 +13,7 @@ DEBIAN_PACKAGES=(
   # build tools and the ROS 1 core
   build-essential cmake catkin catkin-lint ros-core-dev rosbash python3-catkin-pkg
   # C++ libraries of the nodelets
-  libroscpp-dev libnodeletlib-dev libnodelet-dev libnodeletlib-tools libpluginlib-dev
+  libroscpp-dev libnodeletlib-dev libnodelet-dev libnodeletlib-tools pluginlib-dev
   libtf2-ros-dev libtf2-eigen-dev libtf2-sensor-msgs-dev tf2-tools libeigen3-dev
   libpcl-dev libpcl-conversions-dev libsensor-msgs-dev libnav-msgs-dev libmessage-filters-dev
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
