@@ -1,0 +1,430 @@
+"""Validate converter and merger YAML files before a robot uses them.
+
+The schema below is the one place that lists the nodes' private parameters with their
+types, units and limits; it follows the parameter structs of
+depth_filter_scan_converter and multi_laserscan_merger (names and defaults as in their
+READMEs). A problem is reported as ``path.to.key: reason``.
+
+A YAML may hold the parameters directly (as loaded with ``rosparam`` into the node's
+private namespace) or nested under one or more node names, e.g.
+``front_camera_converter: {min_height: ...}``; each nested block is checked on its own.
+"""
+
+import difflib
+import math
+import os
+
+import yaml
+
+PI_TOL = 1e-6  # YAML files write pi with a few digits; allow rounding above pi
+
+
+class Key:
+    """One parameter: type ('float', 'int', 'bool', 'str'), default, unit and limits."""
+
+    def __init__(self, kind, default, unit="", lo=None, hi=None, lo_open=False,
+                 angle=False, nonempty=False, doc=""):
+        self.kind = kind
+        self.default = default
+        self.unit = unit
+        self.lo = lo
+        self.hi = hi
+        self.lo_open = lo_open
+        self.angle = angle
+        self.nonempty = nonempty
+        self.doc = doc
+
+
+INF = float("inf")
+
+CONVERTER = {
+    "reference_frame": Key("str", "base_link", nonempty=True,
+                           doc="frame of the constraints and of the output scan (z up)"),
+    "floor_height": Key("float", 0.0, "m", doc="z of the floor in reference_frame"),
+    "min_height": Key("float", 0.05, "m", doc="lower edge of the obstacle band above the floor"),
+    "max_height": Key("float", 1.0, "m", doc="upper edge of the obstacle band above the floor"),
+    "angle_min": Key("float", -math.pi, "rad", angle=True),
+    "angle_max": Key("float", math.pi, "rad", angle=True),
+    "angle_increment": Key("float", math.pi / 720, "rad", lo=0.0, lo_open=True),
+    "range_min": Key("float", 0.0, "m", lo=0.0),
+    "range_max": Key("float", 10.0, "m", lo=0.0, lo_open=True),
+    "hole_detection": Key("bool", False),
+    "hole_depth": Key("float", 0.05, "m", lo=0.0, lo_open=True),
+    "transform_tolerance": Key("float", 0.1, "s", lo=0.0),
+    "row_stride": Key("int", 1, lo=1),
+    "column_stride": Key("int", 1, lo=1),
+    "use_inf": Key("bool", True),
+    "inf_epsilon": Key("float", 1.0, "m", lo=0.0),
+    "intensity_field": Key("str", ""),
+    "publish_filtered_cloud": Key("bool", False),
+    "queue_size": Key("int", 5, lo=1),
+}
+CONVERTER_PAIRS = [("min_height", "max_height"), ("angle_min", "angle_max"),
+                   ("range_min", "range_max")]
+
+MERGER = {
+    "output_frame": Key("str", "base_link", nonempty=True),
+    "angle_min": Key("float", -math.pi, "rad", angle=True),
+    "angle_max": Key("float", math.pi, "rad", angle=True),
+    "angle_increment": Key("float", math.pi / 720, "rad", lo=0.0, lo_open=True),
+    "range_min": Key("float", 0.0, "m", lo=0.0),
+    "range_max": Key("float", INF, "m", lo=0.0, lo_open=True),
+    "use_inf": Key("bool", True),
+    "inf_epsilon": Key("float", 1.0, "m", lo=0.0),
+    "odom_topic": Key("str", "odom", doc="empty disables motion compensation"),
+    "odom_queue_size": Key("int", 100, lo=1),
+    "publish_rate": Key("float", 0.0, "Hz", lo=0.0),
+    "transform_tolerance": Key("float", 0.1, "s", lo=0.0),
+    "sources": None,  # checked by check_sources
+}
+MERGER_PAIRS = [("angle_min", "angle_max"), ("range_min", "range_max")]
+
+SOURCE = {
+    "name": Key("str", None, nonempty=True),
+    "topic": Key("str", None, nonempty=True),
+    "timeout": Key("float", 0.5, "s", lo=0.0),
+    "angle_min": Key("float", -math.pi, "rad", angle=True),
+    "angle_max": Key("float", math.pi, "rad", angle=True),
+    "range_min": Key("float", 0.0, "m", lo=0.0),
+    "range_max": Key("float", INF, "m", lo=0.0, lo_open=True),
+    "deskew": Key("bool", False),
+}
+SOURCE_REQUIRED = ("name", "topic")
+# angle_min > angle_max is allowed for a source mask: it wraps around +-pi.
+SOURCE_PAIRS = [("range_min", "range_max")]
+
+SCHEMAS = {"converter": CONVERTER, "merger": MERGER}
+
+
+def _type_name(v):
+    if v is None:
+        return "nothing (null)"
+    return {bool: "bool", int: "int", float: "float", str: "string", list: "list",
+            dict: "mapping"}.get(type(v), type(v).__name__)
+
+
+def check_value(path, key, value):
+    """Problems of one value against its Key; returns a list of strings."""
+    if key.kind == "float":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return ["%s: expected a number in %s, got %s %r" % (path, key.unit or "units",
+                                                              _type_name(value), value)]
+        v = float(value)
+        if math.isnan(v):
+            return ["%s: NaN is not a value" % path]
+        if key.angle and not (-math.pi - PI_TOL <= v <= math.pi + PI_TOL):
+            return ["%s: angle %g rad is outside [-pi, pi]" % (path, v)]
+    elif key.kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            return ["%s: expected an integer, got %s %r" % (path, _type_name(value), value)]
+        v = value
+    elif key.kind == "bool":
+        if not isinstance(value, bool):
+            return ["%s: expected true or false, got %s %r" % (path, _type_name(value), value)]
+        return []
+    else:
+        if not isinstance(value, str):
+            return ["%s: expected a string, got %s %r" % (path, _type_name(value), value)]
+        if key.nonempty and not value.strip():
+            return ["%s: must not be empty" % path]
+        return []
+    unit = (" " + key.unit) if key.unit else ""
+    if key.lo is not None:
+        if key.lo_open and not v > key.lo:
+            return ["%s: must be > %g%s, got %g" % (path, key.lo, unit, v)]
+        if not key.lo_open and not v >= key.lo:
+            return ["%s: must be >= %g%s, got %g" % (path, key.lo, unit, v)]
+    if key.hi is not None and not v <= key.hi:
+        return ["%s: must be <= %g%s, got %g" % (path, key.hi, unit, v)]
+    return []
+
+
+def _join(prefix, key):
+    return "%s.%s" % (prefix, key) if prefix else str(key)
+
+
+def _check_block(params, schema, pairs, prefix):
+    problems = []
+    for k in params:
+        if k not in schema:
+            close = difflib.get_close_matches(str(k), list(schema), n=1)
+            hint = " (did you mean '%s'?)" % close[0] if close else ""
+            problems.append("%s: unknown parameter%s" % (_join(prefix, k), hint))
+    for k, key in schema.items():
+        if key is not None and k in params:
+            problems += check_value(_join(prefix, k), key, params[k])
+    for lo, hi in pairs:
+        vlo = params.get(lo, schema[lo].default)
+        vhi = params.get(hi, schema[hi].default)
+        if _num(vlo) and _num(vhi) and not float(vlo) < float(vhi):
+            problems.append("%s: must be greater than %s (%g <= %g)"
+                            % (_join(prefix, hi), lo, float(vhi), float(vlo)))
+    return problems
+
+
+def _num(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and not math.isnan(v)
+
+
+def check_converter(params, prefix=""):
+    problems = _check_block(params, CONVERTER, CONVERTER_PAIRS, prefix)
+    return problems
+
+
+def check_merger(params, prefix=""):
+    problems = _check_block(params, MERGER, MERGER_PAIRS, prefix)
+    path = _join(prefix, "sources")
+    sources = params.get("sources")
+    if sources is None:
+        return problems + ["%s: missing; the merger needs at least one source" % path]
+    if not isinstance(sources, list):
+        return problems + ["%s: expected a list of sources, got %s" % (path, _type_name(sources))]
+    if not sources:
+        return problems + ["%s: empty; the merger needs at least one source" % path]
+    names = {}
+    for i, src in enumerate(sources):
+        sp = "%s[%d]" % (path, i)
+        if not isinstance(src, dict):
+            problems.append("%s: expected a mapping with name and topic, got %s"
+                            % (sp, _type_name(src)))
+            continue
+        for k in SOURCE_REQUIRED:
+            if k not in src:
+                problems.append("%s: missing (required)" % _join(sp, k))
+        problems += _check_block(src, SOURCE, SOURCE_PAIRS, sp)
+        name = src.get("name")
+        if isinstance(name, str) and name:
+            if name in names:
+                problems.append("%s: duplicate source name '%s' (also %s[%d])"
+                                % (_join(sp, "name"), name, path, names[name]))
+            else:
+                names[name] = i
+    return problems
+
+
+def guess_kind(params):
+    if not isinstance(params, dict):
+        return None
+    if "sources" in params or "output_frame" in params or "odom_topic" in params:
+        return "merger"
+    if set(params) & {"reference_frame", "min_height", "max_height", "floor_height",
+                      "hole_detection", "row_stride", "column_stride"}:
+        return "converter"
+    return None
+
+
+def find_blocks(data, kind=None, prefix=""):
+    """(path prefix, kind, params) for each node's parameter block in a loaded YAML."""
+    if not isinstance(data, dict):
+        return []
+    k = kind if kind and (guess_kind(data) or not _all_mappings(data)) else guess_kind(data)
+    if k:
+        return [(prefix, k, data)]
+    blocks = []
+    for name, sub in data.items():
+        if isinstance(sub, dict):
+            blocks += find_blocks(sub, kind, _join(prefix, name))
+    return blocks
+
+
+def _all_mappings(d):
+    return bool(d) and all(isinstance(v, dict) for v in d.values())
+
+
+def frames_of(prefix, kind, params):
+    """(key path, frame) pairs the configuration names."""
+    key = "reference_frame" if kind == "converter" else "output_frame"
+    return [(_join(prefix, key), params.get(key, SCHEMAS[kind][key].default))]
+
+
+def topics_of(prefix, kind, params):
+    """(key path, topic) pairs of a merger's sources."""
+    out = []
+    if kind == "merger" and isinstance(params.get("sources"), list):
+        for i, s in enumerate(params["sources"]):
+            if isinstance(s, dict) and isinstance(s.get("topic"), str) and s["topic"]:
+                out.append(("%s[%d].topic" % (_join(prefix, "sources"), i), s["topic"]))
+    return out
+
+
+class UsageError(Exception):
+    """Bad command line or unreadable file (exit status 2)."""
+
+
+def load_yaml(path):
+    if not os.path.isfile(path):
+        raise UsageError("%s: no such file" % path)
+    try:
+        with open(path) as f:
+            return yaml.safe_load(f)
+    except yaml.YAMLError as e:
+        return _YamlBroken(str(e).replace("\n", " "))
+
+
+class _YamlBroken:
+    def __init__(self, msg):
+        self.msg = msg
+
+
+def check_data(data, kind=None, tf_tree=None, topic_frames=None):
+    """All problems of one loaded YAML document.
+
+    tf_tree: optional TfTree; when given every frame the config names must be in it and
+    connected to the others. topic_frames: optional {topic: frame_id} from a bag; a
+    merger source's frame must then be connected to the output frame.
+    """
+    if isinstance(data, _YamlBroken):
+        return ["(file): not valid YAML: %s" % data.msg]
+    if data is None:
+        return ["(file): empty"]
+    if not isinstance(data, dict):
+        return ["(file): expected a mapping of parameters, got %s" % _type_name(data)]
+    blocks = find_blocks(data, kind)
+    if not blocks:
+        return ["(file): no converter or merger parameters found (use --kind to say which)"]
+    problems = []
+    for prefix, k, params in blocks:
+        problems += (check_converter if k == "converter" else check_merger)(params, prefix)
+        if tf_tree is not None:
+            for path, frame in frames_of(prefix, k, params):
+                if isinstance(frame, str) and frame and not tf_tree.has(frame):
+                    problems.append("%s: frame '%s' is not in the tf tree (frames: %s)"
+                                    % (path, frame, ", ".join(sorted(tf_tree.frames())[:12])))
+            if k == "merger" and topic_frames is not None:
+                out_frame = params.get("output_frame", "base_link")
+                for path, topic in topics_of(prefix, k, params):
+                    t = "/" + topic.lstrip("/")
+                    if t not in topic_frames:
+                        problems.append("%s: topic '%s' is not in the bag" % (path, topic))
+                        continue
+                    frame = topic_frames[t]
+                    if frame and tf_tree.has(out_frame) and not tf_tree.connected(frame, out_frame):
+                        problems.append("%s: its frame '%s' has no tf path to output_frame '%s'"
+                                        % (path, frame, out_frame))
+    return problems
+
+
+def check_file(path, kind=None, tf_tree=None, topic_frames=None):
+    return check_data(load_yaml(path), kind, tf_tree, topic_frames)
+
+
+class TfTree:
+    """Frames and parent links, from a bag or a live tf buffer."""
+
+    def __init__(self, edges=()):
+        self._adj = {}
+        for parent, child in edges:
+            self.add(parent, child)
+
+    def add(self, parent, child):
+        parent = parent.lstrip("/")
+        child = child.lstrip("/")
+        self._adj.setdefault(parent, set()).add(child)
+        self._adj.setdefault(child, set()).add(parent)
+
+    def frames(self):
+        return set(self._adj)
+
+    def has(self, frame):
+        return frame.lstrip("/") in self._adj
+
+    def connected(self, a, b):
+        a = a.lstrip("/")
+        b = b.lstrip("/")
+        if a == b:
+            return True
+        seen = {a}
+        todo = [a]
+        while todo:
+            f = todo.pop()
+            for n in self._adj.get(f, ()):
+                if n == b:
+                    return True
+                if n not in seen:
+                    seen.add(n)
+                    todo.append(n)
+        return False
+
+
+def tf_tree_from_bag(path, max_header_messages=1):
+    """TfTree from /tf and /tf_static, and {topic: frame_id} of every topic with a header."""
+    import rosbag
+    if not os.path.isfile(path):
+        raise UsageError("%s: no such bag" % path)
+    tree = TfTree()
+    topic_frames = {}
+    with rosbag.Bag(path) as bag:
+        info = bag.get_type_and_topic_info().topics
+        for _, msg, _ in bag.read_messages(topics=["/tf", "/tf_static"]):
+            for t in msg.transforms:
+                tree.add(t.header.frame_id, t.child_frame_id)
+        others = [t for t in info if t not in ("/tf", "/tf_static")]
+        for topic in others:
+            for _, msg, _ in bag.read_messages(topics=[topic]):
+                header = getattr(msg, "header", None)
+                if header is not None:
+                    topic_frames[topic] = header.frame_id.lstrip("/")
+                break
+    return tree, topic_frames
+
+
+def tf_tree_live(wait=2.0):
+    """TfTree of a running system (listens to tf for ``wait`` seconds)."""
+    import rospy
+    import tf2_ros
+    rospy.init_node("check_config", anonymous=True, disable_signals=True)
+    buf = tf2_ros.Buffer()
+    tf2_ros.TransformListener(buf)
+    rospy.sleep(wait)
+    frames = yaml.safe_load(buf.all_frames_as_yaml()) or {}
+    tree = TfTree()
+    for child, info in frames.items():
+        tree.add(info.get("parent", ""), child)
+    return tree
+
+
+def main(argv=None):
+    import argparse
+    import sys
+    p = argparse.ArgumentParser(
+        prog="check_config",
+        description="Validate depth_filter_scan_converter / multi_laserscan_merger YAML "
+                    "files. Prints each problem as 'path.to.key: reason'. Exit status: "
+                    "0 all files usable, 1 a file has problems, 2 usage error or missing file.")
+    p.add_argument("files", nargs="+", metavar="FILE")
+    p.add_argument("--kind", choices=["converter", "merger"],
+                   help="what the files configure (default: guessed from the keys)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--bag", help="check frames (and merger source topics) against this bag's "
+                                 "/tf and /tf_static")
+    g.add_argument("--live", action="store_true",
+                   help="check frames against the tf tree of the running system")
+    p.add_argument("--stderr", action="store_true",
+                   help="print problems on stderr (used from launch files, whose "
+                        "<param command=...> keeps stdout)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print problems only")
+    try:
+        args = p.parse_args(argv)
+    except SystemExit as e:
+        return 2 if e.code else 0
+    out = sys.stderr if args.stderr else sys.stdout
+    try:
+        tree = topic_frames = None
+        if args.bag:
+            tree, topic_frames = tf_tree_from_bag(args.bag)
+        elif args.live:
+            tree = tf_tree_live()
+        bad = False
+        for f in args.files:
+            problems = check_file(f, args.kind, tree, topic_frames)
+            if problems:
+                bad = True
+                print("%s: %d problem(s), not usable" % (f, len(problems)), file=out)
+            for pr in problems:
+                print("  " + pr, file=out)
+            if not problems and not args.quiet:
+                print("%s: ok" % f, file=out)
+    except UsageError as e:
+        print("check_config: %s" % e, file=sys.stderr)
+        return 2
+    return 1 if bad else 0
