@@ -1,0 +1,134 @@
+// ROS-free core of the merger: scan validation, resolution remapping, field-of-view
+// and range masking, full 3D transform of every beam into the output frame, motion
+// compensation by odometry (optionally per beam group: deskew) and fusion keeping
+// the closest range (REP 117). Times are real-valued seconds.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "multi_laserscan_merger/odometry_buffer.hpp"
+#include "multi_laserscan_merger/parameters.hpp"
+
+namespace multi_laserscan_merger
+{
+
+/// Read-only view of a LaserScan (no copy of the ranges).
+struct ScanView
+{
+  double stamp = 0.0;            ///< s, time of the first beam
+  double angle_min = 0.0;        ///< rad
+  double angle_max = 0.0;        ///< rad
+  double angle_increment = 0.0;  ///< rad
+  double time_increment = 0.0;   ///< s between beams
+  double range_min = 0.0;        ///< m
+  double range_max = kInf;       ///< m
+  const float* ranges = nullptr;
+  std::size_t n_ranges = 0;
+  const float* intensities = nullptr;  ///< nullptr or n_intensities == 0: none
+  std::size_t n_intensities = 0;
+};
+
+/// nullptr when the scan is usable, otherwise a static description of the fault
+/// (no allocation: also called on the hot path).
+const char* scanFault(const ScanView& scan);
+
+/// Beams implied by the angles (fencepost rule); 0 when the angles are unusable.
+std::size_t expectedBeamCount(const ScanView& scan);
+
+/// The paper's resolution conversion (Eq. 1) between two 360-degree layouts:
+/// beam i_init goes to round(n_new / n_init * i_init) (mod n_new); bins that receive
+/// nothing are +Inf (no return); several beams in one bin keep the closest
+/// (same rules as fuse()). `out` is resized to n_new.
+void remapResolution(const std::vector<float>& in, std::size_t n_new, std::vector<float>& out);
+
+/// REP 117 fusion of one candidate range into a bin (bins start at +Inf = no return):
+/// a real range replaces +Inf, NaN and any larger range; +Inf and NaN never replace a
+/// real range; NaN replaces only +Inf (an invalid reading is no proof of free space);
+/// -Inf ("too close") compares as the closest of all.
+inline void fuse(float& bin, float candidate)
+{
+  if (candidate != candidate)
+  {
+    if (bin == std::numeric_limits<float>::infinity())
+      bin = candidate;
+    return;
+  }
+  if (candidate < bin || (bin != bin && candidate != std::numeric_limits<float>::infinity()))
+    bin = candidate;
+}
+
+/// One source's latest scan and where its sensor was at the scan's stamp.
+struct SourceInput
+{
+  bool present = false;
+  ScanView scan;
+  /// Output frame <- sensor frame at scan.stamp (full 3D; moving sensors allowed).
+  Eigen::Isometry3d output_T_sensor = Eigen::Isometry3d::Identity();
+};
+
+enum class SourceStatus : std::uint8_t
+{
+  kMissing,   ///< no scan yet
+  kUsed,
+  kTimedOut,  ///< older than the source's timeout relative to the output time
+  kInvalid    ///< scanFault() found a fault
+};
+
+struct MergedScan
+{
+  double stamp = 0.0;
+  std::vector<float> ranges;
+  std::vector<float> intensities;  ///< empty when no used source had intensities
+};
+
+class MergerCore
+{
+public:
+  /// Validates the parameters (throws ParameterError).
+  explicit MergerCore(const MergerParams& params);
+
+  const MergerParams& params() const { return params_; }
+  std::size_t beamCount() const { return n_out_; }
+
+  /// Merges the inputs (one per configured source, same order) at time t_out.
+  /// odom: pose queue for motion compensation (nullptr or empty: none, and no deskew).
+  /// output_T_robot: output frame <- odometry child frame (identity when they coincide).
+  /// status (resized to the number of sources) tells what happened to each input.
+  /// No memory is allocated once the buffers have grown to size.
+  void merge(const std::vector<SourceInput>& inputs, double t_out, const OdometryBuffer* odom,
+             const Eigen::Isometry3d& output_T_robot, MergedScan& out, std::vector<SourceStatus>& status);
+
+  /// Beams per deskew group: the transform is computed exactly at every group border
+  /// and interpolated linearly per beam in between.
+  static constexpr std::size_t kDeskewGroup = 16;
+
+private:
+  /// Per-source tables, rebuilt only when the scan geometry changes.
+  struct SourceCache
+  {
+    double angle_min = kInf;
+    double angle_increment = 0.0;
+    std::size_t n = 0;
+    std::vector<float> cos_a, sin_a;
+    std::vector<std::uint8_t> in_fov;
+  };
+  void updateCache(std::size_t source, const ScanView& scan);
+  template <bool kInterpolate>
+  void addScan(std::size_t source, const SourceInput& in, const Eigen::Matrix<float, 2, 3>* transforms,
+               std::size_t group_size, bool with_intensity);
+
+  MergerParams params_;
+  std::size_t n_out_;
+  std::size_t n_circle_;  ///< beams per full turn when the increment divides 2*pi, else 0
+  float out_angle_min_, out_inv_increment_;
+  std::vector<SourceCache> caches_;
+  std::vector<Eigen::Matrix<float, 2, 3>> group_transforms_;
+  std::vector<float>* ranges_ = nullptr;
+  std::vector<float>* intensities_ = nullptr;
+};
+
+}  // namespace multi_laserscan_merger

@@ -1,0 +1,95 @@
+// Parameters of the merger: one struct per concern, defaults in one place,
+// validate() throws ParameterError naming the offending parameter.
+// ROS-free (plain C++17): the ROS glue only fills these structs.
+#pragma once
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace multi_laserscan_merger
+{
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// Thrown by validate(); what() is "<parameter>: <reason>".
+class ParameterError : public std::invalid_argument
+{
+public:
+  ParameterError(const std::string& parameter, const std::string& reason)
+    : std::invalid_argument(parameter + ": " + reason), parameter_(parameter), reason_(reason)
+  {
+  }
+  const std::string& parameter() const { return parameter_; }
+  const std::string& reason() const { return reason_; }
+
+private:
+  std::string parameter_;
+  std::string reason_;
+};
+
+/// Geometry and limits of the merged scan (REP 117 conventions).
+struct OutputParams
+{
+  std::string frame = "base_link";   ///< output_frame
+  double angle_min = -kPi;           ///< rad
+  double angle_max = kPi;            ///< rad
+  double angle_increment = kPi / 720.0;  ///< rad
+  double range_min = 0.0;            ///< m, planar distance from the output frame's origin
+  double range_max = 30.0;          ///< m (finite: consumers use it to clear along no-return beams)
+  bool use_inf = true;               ///< false: "no return" = range_max + inf_epsilon
+  double inf_epsilon = 1.0;          ///< m
+
+  /// Number of beams by the fencepost rule: round((max - min) / increment) + 1.
+  std::size_t beamCount() const;
+  /// Throws ParameterError (names are the ROS parameter names).
+  void validate() const;
+};
+
+/// One input scan source.
+struct SourceParams
+{
+  std::string name;                 ///< unique; used in messages and diagnostics
+  std::string topic;                ///< required
+  double timeout = 1.0;             ///< s; a scan older than this relative to the output time is left out
+  /// Field-of-view mask in the sensor's own frame (rad). angle_min > angle_max
+  /// means the mask wraps around +-pi (e.g. 2.5 .. -2.5 keeps the rear sector).
+  /// A span of 2*pi or more keeps everything.
+  double angle_min = -kPi;
+  double angle_max = kPi;
+  double range_min = 0.0;           ///< m; only tightens the message's own range_min
+  double range_max = kInf;          ///< m; only tightens the message's own range_max
+  bool deskew = false;              ///< move every beam from its own time (time_increment)
+
+  /// Throws ParameterError; `prefix` is e.g. "sources[1]".
+  void validate(const std::string& prefix) const;
+  /// True when the sensor-frame angle (any value, wrapped internally) is inside the mask.
+  bool inFieldOfView(double angle) const;
+};
+
+/// Everything the merger needs.
+struct MergerParams
+{
+  OutputParams output;
+  std::string odom_topic = "odom";  ///< empty disables motion compensation
+  int odom_queue_size = 100;        ///< odometry messages kept
+  double publish_rate = 0.0;        ///< Hz; 0 = one output for every new input scan
+  std::vector<SourceParams> sources;
+
+  /// Validates everything including cross-field checks (duplicate names, >= 1 source).
+  void validate() const;
+};
+
+/// Wraps an angle to [-pi, pi).
+inline double wrapAngle(double a)
+{
+  a = std::fmod(a + kPi, 2.0 * kPi);
+  if (a < 0.0)
+    a += 2.0 * kPi;
+  return a - kPi;
+}
+
+}  // namespace multi_laserscan_merger

@@ -1,0 +1,94 @@
+#include "multi_laserscan_merger/parameters.hpp"
+
+#include <set>
+
+namespace multi_laserscan_merger
+{
+
+std::size_t OutputParams::beamCount() const
+{
+  return static_cast<std::size_t>(std::lround((angle_max - angle_min) / angle_increment)) + 1;
+}
+
+void OutputParams::validate() const
+{
+  if (frame.empty())
+    throw ParameterError("output_frame", "must not be empty");
+  if (!std::isfinite(angle_min) || angle_min < -2.0 * kPi || angle_min > 2.0 * kPi)
+    throw ParameterError("angle_min", "must be finite and within [-2*pi, 2*pi]");
+  if (!std::isfinite(angle_max) || angle_max < -2.0 * kPi || angle_max > 2.0 * kPi)
+    throw ParameterError("angle_max", "must be finite and within [-2*pi, 2*pi]");
+  if (angle_min >= angle_max)
+    throw ParameterError("angle_min", "must be smaller than angle_max");
+  if (angle_max - angle_min > 2.0 * kPi + 1e-6)
+    throw ParameterError("angle_max", "angle_max - angle_min must not exceed 2*pi");
+  if (!std::isfinite(angle_increment) || angle_increment <= 0.0)
+    throw ParameterError("angle_increment", "must be a finite value > 0");
+  if ((angle_max - angle_min) / angle_increment > 1e6)
+    throw ParameterError("angle_increment", "gives more than 1e6 beams");
+  if (std::isnan(range_min) || range_min < 0.0)
+    throw ParameterError("range_min", "must be >= 0");
+  if (std::isnan(range_max) || range_min >= range_max)
+    throw ParameterError("range_min", "must be smaller than range_max");
+  if (!use_inf && !std::isfinite(range_max))
+    throw ParameterError("range_max", "must be finite when use_inf is false (no return = range_max + inf_epsilon)");
+  if (!std::isfinite(inf_epsilon) || inf_epsilon < 0.0)
+    throw ParameterError("inf_epsilon", "must be a finite value >= 0");
+}
+
+void SourceParams::validate(const std::string& prefix) const
+{
+  const std::string p = prefix + ".";
+  if (name.empty())
+    throw ParameterError(p + "name", "missing or empty");
+  if (topic.empty())
+    throw ParameterError(p + "topic", "missing or empty (source '" + name + "')");
+  if (std::isnan(timeout) || timeout <= 0.0)
+    throw ParameterError(p + "timeout", "must be > 0 s (source '" + name + "')");
+  if (!std::isfinite(angle_min) || angle_min < -kPi - 1e-6 || angle_min > kPi + 1e-6)
+    throw ParameterError(p + "angle_min", "must be within [-pi, pi] (source '" + name + "')");
+  if (!std::isfinite(angle_max) || angle_max < -kPi - 1e-6 || angle_max > kPi + 1e-6)
+    throw ParameterError(p + "angle_max", "must be within [-pi, pi] (source '" + name + "')");
+  if (angle_min == angle_max)
+    throw ParameterError(p + "angle_min",
+                         "equals angle_max: empty field of view (angle_min > angle_max wraps around +-pi)");
+  if (std::isnan(range_min) || range_min < 0.0)
+    throw ParameterError(p + "range_min", "must be >= 0 (source '" + name + "')");
+  if (std::isnan(range_max) || range_min >= range_max)
+    throw ParameterError(p + "range_min", "must be smaller than range_max (source '" + name + "')");
+}
+
+bool SourceParams::inFieldOfView(double angle) const
+{
+  double span = angle_max - angle_min;
+  if (span < 0.0)
+    span += 2.0 * kPi;  // wrap-around mask
+  if (span >= 2.0 * kPi - 1e-9)
+    return true;
+  double rel = std::fmod(angle - angle_min, 2.0 * kPi);
+  if (rel < 0.0)
+    rel += 2.0 * kPi;
+  // Tolerance so a beam exactly on a limit given as a rounded value is kept.
+  return rel <= span + 1e-9 || rel >= 2.0 * kPi - 1e-9;
+}
+
+void MergerParams::validate() const
+{
+  output.validate();
+  if (odom_queue_size < 2)
+    throw ParameterError("odom_queue_size", "must be >= 2 (interpolation needs two entries)");
+  if (std::isnan(publish_rate) || publish_rate < 0.0 || !std::isfinite(publish_rate))
+    throw ParameterError("publish_rate", "must be a finite value >= 0 Hz (0 = one output per input scan)");
+  if (sources.empty())
+    throw ParameterError("sources", "at least one source is needed");
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < sources.size(); ++i)
+  {
+    const std::string prefix = "sources[" + std::to_string(i) + "]";
+    sources[i].validate(prefix);
+    if (!names.insert(sources[i].name).second)
+      throw ParameterError(prefix + ".name", "duplicate source name '" + sources[i].name + "'");
+  }
+}
+
+}  // namespace multi_laserscan_merger

@@ -1,0 +1,667 @@
+// gtest of the ROS-free core against analytic results.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "multi_laserscan_merger/fast_math.hpp"
+#include "multi_laserscan_merger/merger_core.hpp"
+
+using namespace multi_laserscan_merger;
+
+namespace
+{
+const float kInfF = std::numeric_limits<float>::infinity();
+const float kNaNF = std::numeric_limits<float>::quiet_NaN();
+
+SourceParams source(const std::string& name)
+{
+  SourceParams s;
+  s.name = name;
+  s.topic = name + "/scan";
+  return s;
+}
+
+MergerParams oneSource()
+{
+  MergerParams p;
+  p.sources = { source("a") };
+  return p;
+}
+
+// A 360-degree scan of n beams starting at -pi, all at range r.
+struct Scan
+{
+  std::vector<float> ranges, intensities;
+  ScanView view(double stamp = 0.0) const
+  {
+    ScanView v;
+    v.stamp = stamp;
+    v.angle_min = -kPi;
+    v.angle_increment = 2.0 * kPi / ranges.size();
+    v.angle_max = v.angle_min + (ranges.size() - 1) * v.angle_increment;
+    v.range_min = 0.05;
+    v.range_max = 30.0;
+    v.ranges = ranges.data();
+    v.n_ranges = ranges.size();
+    v.intensities = intensities.empty() ? nullptr : intensities.data();
+    v.n_intensities = intensities.size();
+    return v;
+  }
+  double angle(std::size_t i) const { return -kPi + 2.0 * kPi * i / ranges.size(); }
+};
+
+SourceInput input(const ScanView& v, const Eigen::Isometry3d& t = Eigen::Isometry3d::Identity())
+{
+  SourceInput in;
+  in.present = true;
+  in.scan = v;
+  in.output_T_sensor = t;
+  return in;
+}
+
+Eigen::Isometry3d pose(double x, double y, double z, double roll, double pitch, double yaw)
+{
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.translation() = Eigen::Vector3d(x, y, z);
+  t.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  return t;
+}
+
+Eigen::Quaterniond yawQ(double yaw)
+{
+  return Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+}
+
+double yawOf(const Eigen::Quaterniond& q)
+{
+  const Eigen::Matrix3d r = q.toRotationMatrix();
+  return std::atan2(r(1, 0), r(0, 0));
+}
+
+// Output bin of a direction for the default output geometry (-pi..pi, pi/720, 1441 bins).
+std::size_t binOf(double angle)
+{
+  double rel = wrapAngle(angle) + kPi;
+  long k = std::lround(rel / (kPi / 720.0));
+  return static_cast<std::size_t>(k % 1440);
+}
+
+// Range of the ray from the origin along `angle` to the square room |x|, |y| <= h.
+double squareRoom(double angle, double h)
+{
+  const double c = std::abs(std::cos(angle)), s = std::abs(std::sin(angle));
+  return std::min(c > 1e-12 ? h / c : 1e9, s > 1e-12 ? h / s : 1e9);
+}
+}  // namespace
+
+// ---------------------------------------------------------------- parameters
+
+TEST(Parameters, DefaultsWithOneSourceAreValid)
+{
+  MergerParams p = oneSource();
+  EXPECT_NO_THROW(p.validate());
+  EXPECT_EQ(p.output.beamCount(), 1441u);
+}
+
+TEST(Parameters, BadConfigsNameTheParameter)
+{
+  auto param_of = [](const MergerParams& p) {
+    try
+    {
+      p.validate();
+    }
+    catch (const ParameterError& e)
+    {
+      return e.parameter();
+    }
+    return std::string("none");
+  };
+  MergerParams p = oneSource();
+  p.sources.push_back(source("a"));
+  EXPECT_EQ(param_of(p), "sources[1].name");
+
+  p = oneSource();
+  p.sources[0].topic.clear();
+  EXPECT_EQ(param_of(p), "sources[0].topic");
+
+  p = oneSource();
+  p.output.angle_min = 1.0;
+  p.output.angle_max = 1.0;
+  EXPECT_EQ(param_of(p), "angle_min");
+
+  p = oneSource();
+  p.output.range_min = 5.0;
+  p.output.range_max = 2.0;
+  EXPECT_EQ(param_of(p), "range_min");
+
+  p = oneSource();
+  p.sources[0].range_min = 3.0;
+  p.sources[0].range_max = 3.0;
+  EXPECT_EQ(param_of(p), "sources[0].range_min");
+
+  p = oneSource();
+  p.sources[0].angle_min = 0.5;
+  p.sources[0].angle_max = 0.5;
+  EXPECT_EQ(param_of(p), "sources[0].angle_min");
+
+  p = oneSource();
+  p.sources[0].timeout = 0.0;
+  EXPECT_EQ(param_of(p), "sources[0].timeout");
+
+  p = oneSource();
+  p.output.angle_increment = 0.0;
+  EXPECT_EQ(param_of(p), "angle_increment");
+
+  p = oneSource();
+  p.odom_queue_size = 1;
+  EXPECT_EQ(param_of(p), "odom_queue_size");
+
+  p = oneSource();
+  p.sources.clear();
+  EXPECT_EQ(param_of(p), "sources");
+
+  // A wrap-around field of view (min > max) is valid.
+  p = oneSource();
+  p.sources[0].angle_min = 2.5;
+  p.sources[0].angle_max = -2.5;
+  EXPECT_NO_THROW(p.validate());
+  EXPECT_THROW(MergerCore{ MergerParams() }, ParameterError);
+}
+
+// ---------------------------------------------------------------- scan validation
+
+TEST(ScanValidation, MalformedScansGiveReasons)
+{
+  Scan s{ std::vector<float>(360, 1.0f), {} };
+  ScanView v = s.view();
+  EXPECT_EQ(scanFault(v), nullptr);
+
+  ScanView bad = v;
+  bad.n_ranges = 300;
+  ASSERT_NE(scanFault(bad), nullptr);
+  EXPECT_NE(std::string(scanFault(bad)).find("ranges length"), std::string::npos);
+
+  bad = v;
+  bad.angle_increment = 0.0;
+  EXPECT_STREQ(scanFault(bad), "angle_increment <= 0");
+  bad.angle_increment = -0.01;
+  EXPECT_STREQ(scanFault(bad), "angle_increment <= 0");
+
+  bad = v;
+  bad.angle_min = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(std::string(scanFault(bad)).find("non-finite"), std::string::npos);
+  bad = v;
+  bad.angle_max = std::numeric_limits<double>::infinity();
+  EXPECT_NE(std::string(scanFault(bad)).find("non-finite"), std::string::npos);
+
+  bad = v;
+  bad.n_ranges = 0;
+  EXPECT_STREQ(scanFault(bad), "empty ranges");
+
+  std::vector<float> few(10, 1.0f);
+  bad = v;
+  bad.intensities = few.data();
+  bad.n_intensities = few.size();
+  EXPECT_NE(std::string(scanFault(bad)).find("intensities"), std::string::npos);
+
+  // A malformed scan is left out of the merge with status kInvalid.
+  MergerCore core(oneSource());
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  bad = v;
+  bad.angle_increment = 0.0;
+  core.merge({ input(bad) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  EXPECT_EQ(st[0], SourceStatus::kInvalid);
+  for (float r : out.ranges)
+    EXPECT_EQ(r, kInfF);
+}
+
+// ---------------------------------------------------------------- remapping
+
+TEST(Remap, From360To1440AndBack)
+{
+  std::vector<float> in(360);
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<float> d(0.1f, 10.0f);
+  for (auto& r : in)
+    r = d(rng);
+  std::vector<float> up, down;
+  remapResolution(in, 1440, up);
+  ASSERT_EQ(up.size(), 1440u);
+  for (std::size_t i = 0; i < 1440; ++i)
+  {
+    if (i % 4 == 0)
+      EXPECT_EQ(up[i], in[i / 4]);
+    else
+      EXPECT_EQ(up[i], kInfF) << "gap " << i << " must be no-return";
+  }
+  remapResolution(up, 360, down);
+  ASSERT_EQ(down.size(), 360u);
+  for (std::size_t i = 0; i < 360; ++i)
+    EXPECT_EQ(down[i], in[i]);
+
+  // Downsampling keeps the closest of the merged beams.
+  std::vector<float> four = { 3.0f, 1.0f, kNaNF, kInfF };
+  remapResolution(four, 1, down);
+  EXPECT_EQ(down[0], 1.0f);
+}
+
+TEST(Remap, MergeOfAlignedSourceMatchesIndexMapping)
+{
+  // With sensor frame == output frame the merge's binning is Eq. (1).
+  Scan s{ std::vector<float>(360), {} };
+  for (std::size_t i = 0; i < 360; ++i)
+    s.ranges[i] = 1.0f + 0.01f * i;
+  MergerCore core(oneSource());
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ input(s.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  std::vector<float> expected;
+  remapResolution(s.ranges, 1440, expected);
+  ASSERT_EQ(out.ranges.size(), 1441u);
+  for (std::size_t i = 0; i < 1440; ++i)
+  {
+    if (std::isinf(expected[i]))
+      EXPECT_EQ(out.ranges[i], expected[i]) << i;
+    else
+      EXPECT_NEAR(out.ranges[i], expected[i], 1e-5) << i;
+  }
+  EXPECT_EQ(out.ranges[1440], out.ranges[0]);  // -pi and pi are one direction
+}
+
+// ---------------------------------------------------------------- field of view
+
+TEST(FieldOfView, PlainAndWrapAround)
+{
+  SourceParams s = source("a");
+  s.angle_min = -kPi / 2;
+  s.angle_max = kPi / 2;
+  EXPECT_TRUE(s.inFieldOfView(0.0));
+  EXPECT_TRUE(s.inFieldOfView(1.5));
+  EXPECT_FALSE(s.inFieldOfView(1.6));
+  EXPECT_FALSE(s.inFieldOfView(kPi));
+  EXPECT_FALSE(s.inFieldOfView(-1.6));
+
+  s.angle_min = 2.5;  // rear sector only, across +-pi
+  s.angle_max = -2.5;
+  EXPECT_TRUE(s.inFieldOfView(kPi));
+  EXPECT_TRUE(s.inFieldOfView(-kPi));
+  EXPECT_TRUE(s.inFieldOfView(2.6));
+  EXPECT_TRUE(s.inFieldOfView(-2.6));
+  EXPECT_TRUE(s.inFieldOfView(3.0 - 2.0 * kPi));
+  EXPECT_FALSE(s.inFieldOfView(0.0));
+  EXPECT_FALSE(s.inFieldOfView(2.4));
+  EXPECT_FALSE(s.inFieldOfView(-2.4));
+
+  s.angle_min = -kPi;
+  s.angle_max = kPi;
+  for (double a = -4.0; a < 4.0; a += 0.1)
+    EXPECT_TRUE(s.inFieldOfView(a));
+}
+
+TEST(FieldOfView, MaskAppliedInMerge)
+{
+  MergerParams p = oneSource();
+  p.sources[0].angle_min = 2.5;
+  p.sources[0].angle_max = -2.5;
+  MergerCore core(p);
+  Scan s{ std::vector<float>(360, 2.0f), {} };
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ input(s.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  for (std::size_t k = 0; k < out.ranges.size(); ++k)
+  {
+    const double a = -kPi + k * kPi / 720.0;
+    if (std::abs(a) < 2.49)
+    {
+      EXPECT_EQ(out.ranges[k], kInfF) << k;
+    }
+    if (std::abs(a) > 2.51 && k % 4 == 0)
+    {
+      EXPECT_NEAR(out.ranges[k], 2.0f, 1e-5) << k;
+    }
+  }
+}
+
+TEST(FieldOfView, SourceRangeLimits)
+{
+  MergerParams p = oneSource();
+  p.sources[0].range_min = 0.5;  // tighter than the message's 0.05: the robot's body
+  p.sources[0].range_max = 4.0;
+  MergerCore core(p);
+  Scan s{ std::vector<float>(360, 2.0f), {} };
+  s.ranges[0] = 0.3f;     // below the source's range_min: invalid, marked NaN
+  s.ranges[1] = 5.0f;     // beyond range_max: no return
+  s.ranges[2] = -kInfF;   // too close, inside the tightened limit: ignored like the body
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ input(s.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  EXPECT_TRUE(std::isnan(out.ranges[0]));
+  EXPECT_EQ(out.ranges[4], kInfF);
+  EXPECT_TRUE(std::isnan(out.ranges[8]));
+  EXPECT_NEAR(out.ranges[12], 2.0f, 1e-5);
+}
+
+// ---------------------------------------------------------------- geometry
+
+TEST(FastMath, Atan2WellUnderHalfABin)
+{
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> d(-50.0f, 50.0f);
+  double worst = 0.0;
+  for (int i = 0; i < 200000; ++i)
+  {
+    const float x = d(rng), y = d(rng);
+    worst = std::max(worst, std::abs(static_cast<double>(fastAtan2(y, x)) - std::atan2((double)y, (double)x)));
+  }
+  for (float a = -3.14159f; a < 3.1416f; a += 0.001f)
+    worst = std::max(worst, std::abs(static_cast<double>(fastAtan2(std::sin(a), std::cos(a))) - a));
+  EXPECT_LT(worst, 1e-5);  // half of an output beam is 2.2e-3 rad
+  EXPECT_EQ(fastAtan2(0.0f, 0.0f), 0.0f);
+  EXPECT_NEAR(fastAtan2(0.0f, -1.0f), kPi, 1e-6);
+}
+
+TEST(Transform, RearLidarYawPi)
+{
+  MergerCore core(oneSource());
+  Scan s{ std::vector<float>(360, 1.0f), {} };
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ input(s.view(), pose(-0.3, 0.0, 0.2, 0, 0, kPi)) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out,
+             st);
+  for (std::size_t i = 0; i < 360; ++i)
+  {
+    const double a = s.angle(i);
+    // Rotated by pi: the sensor's (cos a, sin a) is the robot's (-cos a, -sin a).
+    const double x = -0.3 - std::cos(a), y = -std::sin(a);
+    EXPECT_NEAR(out.ranges[binOf(std::atan2(y, x))], std::hypot(x, y), 1e-4) << i;
+  }
+  // The beam straight ahead of the rear lidar is behind the robot at 1.3 m.
+  EXPECT_NEAR(out.ranges[0], 1.3, 1e-4);
+  EXPECT_NEAR(out.ranges[1440], 1.3, 1e-4);
+}
+
+TEST(Transform, UpsideDownLidarIsMirrored)
+{
+  MergerCore core(oneSource());
+  Scan s{ std::vector<float>(360, kInfF), {} };
+  // Only the beam at sensor angle +90 degrees sees something, 2 m away.
+  s.ranges[270] = 2.0f;
+  ASSERT_NEAR(s.angle(270), kPi / 2, 1e-9);
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ input(s.view(), pose(0.2, 0.1, 0.4, kPi, 0, 0)) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out,
+             st);
+  // Upside down (roll pi): the sensor's left is the robot's right.
+  const double x = 0.2, y = 0.1 - 2.0;
+  EXPECT_NEAR(out.ranges[binOf(std::atan2(y, x))], std::hypot(x, y), 1e-4);
+  std::size_t finite = 0;
+  for (float r : out.ranges)
+    finite += std::isfinite(r) ? 1 : 0;
+  EXPECT_EQ(finite, 1u);
+
+  // Every beam of a full scan against the analytic mirror.
+  Scan full{ std::vector<float>(360, 1.5f), {} };
+  core.merge({ input(full.view(), pose(0.2, 0.1, 0.4, kPi, 0, 0.3)) }, 0.0, nullptr, Eigen::Isometry3d::Identity(),
+             out, st);
+  for (std::size_t i = 0; i < 360; ++i)
+  {
+    const double a = full.angle(i);
+    // roll pi maps (c, s) to (c, -s); then yaw 0.3 rotates: the angle becomes 0.3 - a.
+    const double x = 0.2 + 1.5 * std::cos(0.3 - a), y = 0.1 + 1.5 * std::sin(0.3 - a);
+    EXPECT_NEAR(out.ranges[binOf(std::atan2(y, x))], std::hypot(x, y), 1e-4) << i;
+  }
+}
+
+TEST(Transform, NoOutOfBoundsOnAngleMax)
+{
+  MergerParams p = oneSource();
+  p.output.angle_min = -kPi / 2;
+  p.output.angle_max = kPi / 2;
+  p.output.angle_increment = kPi / 180;
+  MergerCore core(p);
+  ASSERT_EQ(core.beamCount(), 181u);
+  Scan s{ std::vector<float>(360, 1.0f), {} };
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ input(s.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  ASSERT_EQ(out.ranges.size(), 181u);
+  EXPECT_NEAR(out.ranges[0], 1.0f, 1e-5);
+  EXPECT_NEAR(out.ranges[180], 1.0f, 1e-5);  // the beam exactly on angle_max
+}
+
+// ---------------------------------------------------------------- odometry
+
+TEST(Odometry, InterpolationAcrossPi)
+{
+  OdometryBuffer b(10);
+  b.add(0.0, Eigen::Vector3d(0, 0, 0), yawQ(3.0));
+  b.add(1.0, Eigen::Vector3d(2, 4, 0), yawQ(-3.0));  // 3.0 -> 3.283: through +-pi
+  Pose p;
+  ASSERT_TRUE(b.poseAt(0.5, p));
+  EXPECT_NEAR(p.position.x(), 1.0, 1e-12);
+  EXPECT_NEAR(p.position.y(), 2.0, 1e-12);
+  EXPECT_NEAR(std::abs(yawOf(p.orientation)), kPi, 1e-9);
+  ASSERT_TRUE(b.poseAt(0.25, p));
+  EXPECT_NEAR(wrapAngle(yawOf(p.orientation) - (3.0 + 0.25 * (2 * kPi - 6.0))), 0.0, 1e-9);
+}
+
+TEST(Odometry, ShortestArcForNegatedQuaternion)
+{
+  OdometryBuffer b(10);
+  b.add(0.0, Eigen::Vector3d::Zero(), yawQ(0.2));
+  Eigen::Quaterniond q = yawQ(0.4);
+  q.coeffs() = -q.coeffs();  // same rotation
+  b.add(1.0, Eigen::Vector3d::Zero(), q);
+  Pose p;
+  ASSERT_TRUE(b.poseAt(0.5, p));
+  EXPECT_NEAR(yawOf(p.orientation), 0.3, 1e-9);
+  EXPECT_NEAR(yawOf(slerpShortest(yawQ(0.2), q, 0.25)), 0.25, 1e-9);
+}
+
+TEST(Odometry, ClampingQueueSizeAndTimeBackwards)
+{
+  OdometryBuffer b(3);
+  Pose p;
+  EXPECT_FALSE(b.poseAt(1.0, p));
+  for (int i = 0; i < 5; ++i)
+    EXPECT_EQ(b.add(i, Eigen::Vector3d(i, 0, 0), yawQ(0.1 * i)), OdometryBuffer::AddResult::kAdded);
+  EXPECT_EQ(b.size(), 3u);
+  EXPECT_EQ(b.oldestTime(), 2.0);
+  EXPECT_EQ(b.newestTime(), 4.0);
+  ASSERT_TRUE(b.poseAt(-10.0, p));  // before the oldest: the oldest
+  EXPECT_EQ(p.position.x(), 2.0);
+  EXPECT_NEAR(yawOf(p.orientation), 0.2, 1e-12);
+  ASSERT_TRUE(b.poseAt(100.0, p));  // after the newest: the newest, no extrapolation
+  EXPECT_EQ(p.position.x(), 4.0);
+  ASSERT_TRUE(b.poseAt(3.5, p));
+  EXPECT_NEAR(p.position.x(), 3.5, 1e-12);
+  EXPECT_NEAR(yawOf(p.orientation), 0.35, 1e-9);
+
+  EXPECT_EQ(b.add(1.0, Eigen::Vector3d(9, 0, 0), yawQ(0)), OdometryBuffer::AddResult::kClearedBackwards);
+  EXPECT_EQ(b.size(), 1u);
+  EXPECT_EQ(b.oldestTime(), 1.0);
+  EXPECT_EQ(b.add(2.0, Eigen::Vector3d(std::nan(""), 0, 0), yawQ(0)), OdometryBuffer::AddResult::kRejected);
+  Eigen::Quaterniond zero(0, 0, 0, 0);
+  EXPECT_EQ(b.add(2.0, Eigen::Vector3d::Zero(), zero), OdometryBuffer::AddResult::kRejected);
+  EXPECT_EQ(b.size(), 1u);
+}
+
+// ---------------------------------------------------------------- motion compensation
+
+TEST(MotionCompensation, HeadingNinetyDegreesDrivingForward)
+{
+  // Robot heading +90 degrees in odom (facing +y) drives forward at 1 m/s.
+  OdometryBuffer odom(10);
+  for (int i = 0; i <= 4; ++i)
+    odom.add(0.05 * i, Eigen::Vector3d(0, 0.05 * i, 0), yawQ(kPi / 2));
+  MergerCore core(oneSource());
+  Scan s{ std::vector<float>(360, kInfF), {} };
+  s.ranges[180] = 2.0f;  // straight ahead (angle 0), 2 m
+  s.ranges[270] = 2.0f;  // to the left, 2 m
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  // The scan is 100 ms old at the output time 0.15.
+  core.merge({ input(s.view(0.05)) }, 0.15, &odom, Eigen::Isometry3d::Identity(), out, st);
+  EXPECT_EQ(st[0], SourceStatus::kUsed);
+  // The obstacle ahead came 0.1 m closer; it did not move sideways.
+  EXPECT_NEAR(out.ranges[binOf(0.0)], 1.9f, 1e-4);
+  // The one on the left is now 0.1 m behind the robot's y axis.
+  EXPECT_NEAR(out.ranges[binOf(std::atan2(2.0, -0.1))], std::hypot(2.0, 0.1), 1e-4);
+  EXPECT_EQ(out.ranges[binOf(kPi / 2)], kInfF);
+  EXPECT_EQ(out.stamp, 0.15);
+
+  // A sensor mounted elsewhere: same motion, same answer in the robot frame.
+  core.merge({ input(s.view(0.05), pose(0.3, 0.0, 0.0, 0, 0, 0)) }, 0.15, &odom, Eigen::Isometry3d::Identity(), out,
+             st);
+  EXPECT_NEAR(out.ranges[binOf(0.0)], 2.2f, 1e-4);
+}
+
+TEST(MotionCompensation, TimeoutLeavesOldScansOut)
+{
+  MergerParams p = oneSource();
+  p.sources.push_back(source("b"));
+  p.sources[0].timeout = 0.2;
+  MergerCore core(p);
+  Scan s{ std::vector<float>(360, 1.0f), {} };
+  Scan s2{ std::vector<float>(360, 3.0f), {} };
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  SourceInput missing;
+  core.merge({ input(s.view(0.0)), input(s2.view(0.5)) }, 0.5, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  EXPECT_EQ(st[0], SourceStatus::kTimedOut);
+  EXPECT_EQ(st[1], SourceStatus::kUsed);
+  EXPECT_NEAR(out.ranges[0], 3.0f, 1e-5);
+  core.merge({ missing, input(s2.view(0.5)) }, 0.5, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  EXPECT_EQ(st[0], SourceStatus::kMissing);
+}
+
+TEST(MotionCompensation, DeskewWhileRotatingOneRadPerSecond)
+{
+  // Robot at the centre of a 4 m square room, turning in place at 1 rad/s (yaw = t).
+  const double h = 2.0, dt = 0.1 / 360.0;
+  OdometryBuffer odom(100);
+  for (int i = 0; i <= 20; ++i)
+    odom.add(0.01 * i, Eigen::Vector3d::Zero(), yawQ(0.01 * i));
+  Scan s{ std::vector<float>(360), {} };
+  for (std::size_t i = 0; i < 360; ++i)
+    s.ranges[i] = static_cast<float>(squareRoom(s.angle(i) + i * dt, h));  // measured at t = i*dt
+  ScanView v = s.view(0.0);
+  v.time_increment = dt;
+  MergerParams p = oneSource();
+  p.sources[0].deskew = true;
+  MergerCore core(p);
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  const double t_out = 0.1;
+  core.merge({ input(v) }, t_out, &odom, Eigen::Isometry3d::Identity(), out, st);
+  double worst = 0.0;
+  std::size_t checked = 0;
+  for (std::size_t k = 0; k < 1440; ++k)
+  {
+    if (!std::isfinite(out.ranges[k]))
+      continue;
+    const double a = -kPi + k * kPi / 720.0;  // in the robot frame at t_out
+    // The bin holds the beam nearest its centre (within half a bin): compare with the
+    // room's range along the bin's direction, allowing the slope of the wall over half a bin.
+    const double expected = squareRoom(a + t_out, h);
+    const double slope = std::abs(squareRoom(a + t_out + kPi / 1440, h) - squareRoom(a + t_out - kPi / 1440, h));
+    worst = std::max(worst, std::abs(out.ranges[k] - expected) - slope);
+    ++checked;
+  }
+  EXPECT_GT(checked, 300u);
+  EXPECT_LT(worst, 0.01);
+
+  // Without deskew the same scan is visibly wrong (the 0.1 rad turn during the scan).
+  p.sources[0].deskew = false;
+  MergerCore plain(p);
+  plain.merge({ input(v) }, t_out, &odom, Eigen::Isometry3d::Identity(), out, st);
+  double worst_plain = 0.0;
+  for (std::size_t k = 0; k < 1440; ++k)
+    if (std::isfinite(out.ranges[k]))
+      worst_plain = std::max(worst_plain, std::abs(out.ranges[k] - squareRoom(-kPi + k * kPi / 720.0 + t_out, h)));
+  EXPECT_GT(worst_plain, 0.1);
+}
+
+// ---------------------------------------------------------------- fusion
+
+TEST(Fusion, Rep117Rules)
+{
+  float bin = kInfF;
+  fuse(bin, kNaNF);
+  EXPECT_TRUE(std::isnan(bin));  // invalid is kept over no-return
+  fuse(bin, kInfF);
+  EXPECT_TRUE(std::isnan(bin));  // no-return never replaces invalid
+  fuse(bin, 2.0f);
+  EXPECT_EQ(bin, 2.0f);  // a real range replaces NaN
+  fuse(bin, kInfF);
+  fuse(bin, kNaNF);
+  fuse(bin, 3.0f);
+  EXPECT_EQ(bin, 2.0f);  // +Inf, NaN and farther ranges never replace it
+  fuse(bin, 1.0f);
+  EXPECT_EQ(bin, 1.0f);
+  fuse(bin, -kInfF);
+  EXPECT_EQ(bin, -kInfF);  // too close is the closest
+  fuse(bin, 0.5f);
+  fuse(bin, kNaNF);
+  EXPECT_EQ(bin, -kInfF);
+}
+
+TEST(Fusion, TwoSourcesClosestWinsAndNoReturnNeverHides)
+{
+  MergerParams p = oneSource();
+  p.sources.push_back(source("b"));
+  MergerCore core(p);
+  Scan a{ std::vector<float>(360, 2.0f), std::vector<float>(360, 10.0f) };
+  Scan b{ std::vector<float>(360, 3.0f), std::vector<float>(360, 20.0f) };
+  a.ranges[0] = kNaNF;
+  a.ranges[1] = kInfF;
+  a.ranges[2] = -kInfF;  // too close for a: obstacle at a's range_min 0.05
+  b.ranges[3] = 1.0f;
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ input(a.view()), input(b.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  EXPECT_NEAR(out.ranges[0], 3.0f, 1e-5);
+  EXPECT_EQ(out.intensities[0], 20.0f);
+  EXPECT_NEAR(out.ranges[4], 3.0f, 1e-5);
+  EXPECT_NEAR(out.ranges[8], 0.05f, 1e-5);
+  EXPECT_EQ(out.intensities[8], 10.0f);
+  EXPECT_NEAR(out.ranges[12], 1.0f, 1e-5);
+  EXPECT_NEAR(out.ranges[16], 2.0f, 1e-5);
+  EXPECT_EQ(out.intensities[16], 10.0f);
+  EXPECT_EQ(out.ranges[17], kInfF);  // gaps of the low-resolution inputs
+  EXPECT_EQ(out.intensities[17], 0.0f);
+}
+
+TEST(Fusion, OutputLimitsAndUseInf)
+{
+  MergerParams p = oneSource();
+  p.output.range_min = 0.5;
+  p.output.range_max = 2.5;
+  p.output.use_inf = false;
+  p.output.inf_epsilon = 0.5;
+  MergerCore core(p);
+  Scan a{ std::vector<float>(360, 2.0f), {} };
+  a.ranges[0] = 3.0f;
+  a.ranges[1] = 0.2f;
+  a.ranges[2] = kNaNF;
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ input(a.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  EXPECT_EQ(out.ranges[0], 3.0f);   // beyond range_max: no return = range_max + inf_epsilon
+  EXPECT_EQ(out.ranges[1], 3.0f);   // a gap: no return
+  EXPECT_EQ(out.ranges[4], -kInfF);  // closer than range_min: too close
+  EXPECT_TRUE(std::isnan(out.ranges[8]));
+  EXPECT_NEAR(out.ranges[12], 2.0f, 1e-5);
+  EXPECT_TRUE(out.intensities.empty());
+}
+
+int main(int argc, char** argv)
+{
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
