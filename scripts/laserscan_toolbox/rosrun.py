@@ -1,0 +1,224 @@
+"""Running ROS pieces for the tools: a private master, a roslaunch, rosbag play, CPU meters.
+
+Every tool starts its own ``roscore`` on a free port with ROS_HOME / ROS_LOG_DIR in a
+temporary folder, so it never collides with a robot's master or with a test's. Child
+processes get their own process group and are stopped by that id only.
+"""
+
+import os
+import signal
+import socket
+import subprocess
+import time
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+class RunError(Exception):
+    """The pipeline could not be run (launch failed, master did not start, ...)."""
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def stop_process(proc, timeout=10.0):
+    """SIGINT the process group we created, then SIGTERM / SIGKILL if it lingers."""
+    if proc is None or proc.poll() is not None:
+        return
+    for sig, wait in ((signal.SIGINT, timeout), (signal.SIGTERM, 3.0), (signal.SIGKILL, 3.0)):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            return
+        try:
+            proc.wait(wait)
+            return
+        except subprocess.TimeoutExpired:
+            continue
+
+
+def log_tail(path, n=25):
+    try:
+        with open(path, errors="replace") as f:
+            return "".join(f.readlines()[-n:])
+    except OSError:
+        return ""
+
+
+class Master:
+    """A private roscore; sets ROS_MASTER_URI etc. in os.environ for this process too."""
+
+    def __init__(self, workdir, sim_time=True):
+        self.workdir = workdir
+        self.sim_time = sim_time
+        self.proc = None
+        self.port = None
+
+    def __enter__(self):
+        os.makedirs(self.workdir, exist_ok=True)
+        self.port = free_port()
+        self.uri = "http://127.0.0.1:%d" % self.port
+        for k, v in (("ROS_MASTER_URI", self.uri), ("ROS_HOME", self.workdir),
+                     ("ROS_LOG_DIR", os.path.join(self.workdir, "log")),
+                     ("ROS_IP", "127.0.0.1")):
+            os.environ[k] = v
+        os.environ.pop("ROS_HOSTNAME", None)
+        self.log = os.path.join(self.workdir, "roscore.log")
+        with open(self.log, "w") as f:
+            self.proc = subprocess.Popen(["roscore", "-p", str(self.port)], stdout=f,
+                                         stderr=subprocess.STDOUT, start_new_session=True)
+        import rosgraph
+        master = rosgraph.Master("/laserscan_toolbox")
+        deadline = time.time() + 30
+        while True:
+            try:
+                master.getPid()
+                # roscore is up once /rosout is registered too
+                if self.sim_time:
+                    master.setParam("/use_sim_time", True)
+                break
+            except Exception:
+                if self.proc.poll() is not None or time.time() > deadline:
+                    self.__exit__(None, None, None)
+                    raise RunError("roscore did not start:\n" + log_tail(self.log))
+                time.sleep(0.2)
+        self.master = master
+        return self
+
+    def __exit__(self, *exc):
+        stop_process(self.proc)
+
+
+class Launch:
+    """``roslaunch FILE args...`` in its own process group."""
+
+    def __init__(self, launch_file, args, log_path):
+        if not os.path.isfile(launch_file):
+            raise RunError("%s: no such launch file" % launch_file)
+        self.cmd = ["roslaunch", launch_file] + list(args)
+        self.log_path = log_path
+        self.proc = None
+
+    def start(self):
+        with open(self.log_path, "w") as f:
+            self.proc = subprocess.Popen(self.cmd, stdout=f, stderr=subprocess.STDOUT,
+                                         start_new_session=True)
+        return self
+
+    def wait_ready(self, master, settle=2.0, timeout=40.0, ignore_nodes=()):
+        """Waits until the launched nodes' publications stop changing. Returns
+        {topic: [publisher nodes]} of what the launch publishes."""
+        start = time.time()
+        last = None
+        stable_since = None
+        while True:
+            if self.proc.poll() is not None:
+                raise RunError("roslaunch exited with status %d:\n%s"
+                               % (self.proc.returncode, log_tail(self.log_path)))
+            pubs = {}
+            try:
+                state = master.getSystemState()
+                for topic, nodes in state[0]:
+                    nodes = [n for n in nodes if n != "/rosout" and n not in ignore_nodes]
+                    if nodes:
+                        pubs[topic] = nodes
+            except Exception:
+                pass
+            now = time.time()
+            if pubs and pubs == last:
+                if stable_since is not None and now - stable_since >= settle:
+                    return pubs
+            else:
+                stable_since = now
+            last = pubs
+            if now - start > timeout:
+                if pubs:
+                    return pubs
+                raise RunError("the launch published nothing within %.0f s:\n%s"
+                               % (timeout, log_tail(self.log_path)))
+            time.sleep(0.25)
+
+    def processes(self):
+        """(name, psutil.Process) of every process the launch started."""
+        import psutil
+        out = []
+        try:
+            children = psutil.Process(self.proc.pid).children(recursive=True)
+        except psutil.Error:
+            return out
+        for p in children:
+            try:
+                cmd = p.cmdline()
+            except psutil.Error:
+                continue
+            name = next((a.split(":=", 1)[1] for a in cmd if a.startswith("__name:=")), None)
+            if name is None:
+                name = os.path.basename(cmd[1] if len(cmd) > 1 and "python" in cmd[0]
+                                        else cmd[0]) if cmd else str(p.pid)
+            if "nodelet" in " ".join(cmd[:2]) and "manager" in cmd:
+                name += " (nodelet manager)"
+            out.append((name, p))
+        return out
+
+    def stop(self):
+        stop_process(self.proc)
+
+
+class CpuMeter:
+    """CPU time of processes between start() and stop(), as percent of one core."""
+
+    def __init__(self, named_procs):
+        self.procs = named_procs
+        self.t0 = None
+        self.c0 = {}
+
+    @staticmethod
+    def _cpu(p):
+        t = p.cpu_times()
+        return t.user + t.system
+
+    def start(self):
+        import psutil
+        self.t0 = time.time()
+        for name, p in self.procs:
+            try:
+                self.c0[name] = (p, self._cpu(p))
+            except psutil.Error:
+                pass
+
+    def stop(self):
+        import psutil
+        wall = time.time() - self.t0
+        res = {}
+        for name, (p, c0) in self.c0.items():
+            try:
+                c1 = self._cpu(p)
+                rss = p.memory_info().rss
+            except psutil.Error:
+                continue
+            res[name] = {"cpu_percent": 100.0 * (c1 - c0) / wall if wall > 0 else float("nan"),
+                         "cpu_seconds": c1 - c0, "rss_mb": rss / 1e6}
+        return res, wall
+
+
+class BagPlayer:
+    def __init__(self, bag, log_path, rate=1.0, extra=()):
+        self.cmd = ["rosbag", "play", "--clock", "--hz=200", "-q", "-d", "1", "-r",
+                    str(rate)] + list(extra) + [bag]
+        self.log_path = log_path
+        self.proc = None
+
+    def start(self):
+        with open(self.log_path, "w") as f:
+            self.proc = subprocess.Popen(self.cmd, stdout=f, stderr=subprocess.STDOUT,
+                                         stdin=subprocess.DEVNULL, start_new_session=True)
+        return self
+
+    def running(self):
+        return self.proc.poll() is None
+
+    def stop(self):
+        stop_process(self.proc, timeout=5)
