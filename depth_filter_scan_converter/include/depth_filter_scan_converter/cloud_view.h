@@ -1,0 +1,73 @@
+// Zero-copy view over a raw point buffer laid out like sensor_msgs/PointCloud2 (ROS-free).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace depth_filter_scan_converter
+{
+/// Field datatypes, numbered as in sensor_msgs/PointField.
+enum class FieldType : std::uint8_t
+{
+  Int8 = 1,
+  UInt8 = 2,
+  Int16 = 3,
+  UInt16 = 4,
+  Int32 = 5,
+  UInt32 = 6,
+  Float32 = 7,
+  Float64 = 8
+};
+
+/// Size in bytes of one value of the given type; 0 for an unknown code.
+std::size_t fieldTypeSize(std::uint8_t datatype);
+
+/// Describes one field of the point layout (mirrors sensor_msgs/PointField).
+struct FieldDescription
+{
+  std::string name;
+  std::uint32_t offset = 0;
+  std::uint8_t datatype = 0;
+  std::uint32_t count = 1;
+};
+
+/// The buffer is not owned: it must outlive the view.
+struct CloudView
+{
+  const std::uint8_t* data = nullptr;
+  std::uint32_t width = 0;
+  std::uint32_t height = 0;
+  std::uint32_t point_step = 0;
+  std::uint32_t row_step = 0;
+  std::uint32_t x_offset = 0;
+  std::uint32_t y_offset = 0;
+  std::uint32_t z_offset = 0;
+  FieldType xyz_type = FieldType::Float32;  ///< Float32 or Float64
+  bool has_intensity = false;
+  std::uint32_t intensity_offset = 0;
+  FieldType intensity_type = FieldType::Float32;
+
+  std::size_t size() const { return static_cast<std::size_t>(width) * height; }
+};
+
+/// Everything of a PointCloud2 header that decides whether its bytes can be read.
+struct CloudLayout
+{
+  std::uint32_t width = 0;
+  std::uint32_t height = 0;
+  std::uint32_t point_step = 0;
+  std::uint32_t row_step = 0;
+  bool is_bigendian = false;
+  std::vector<FieldDescription> fields;
+};
+
+/// Checks the layout against the buffer and fills `view`.
+/// Returns an empty string when the cloud is usable, else the reason it is not.
+/// A missing or unusable `intensity_field` is not an error: view.has_intensity stays false
+/// and `intensity_note` (if given) says why.
+std::string makeCloudView(const CloudLayout& layout, const std::uint8_t* data, std::size_t data_size,
+                          const std::string& intensity_field, CloudView& view,
+                          std::string* intensity_note = nullptr);
+
+}  // namespace depth_filter_scan_converter

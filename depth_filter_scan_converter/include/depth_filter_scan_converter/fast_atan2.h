@@ -1,0 +1,36 @@
+// Branch-free float atan2 approximation used to map points to beams (ROS-free).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+namespace depth_filter_scan_converter
+{
+/// Largest error of fastAtan2 against std::atan2, in radians, with margin for float
+/// rounding (the polynomial alone stays under 1.7e-6). Tests check this bound; it is
+/// far below half a beam for any sensible angle_increment.
+constexpr float kFastAtan2MaxError = 4e-6f;
+
+/// atan2(y, x) in [-pi, pi]. An odd degree-11 polynomial, least-squares fitted to atan on
+/// [0, 1] (Chebyshev nodes, error-weighted), after reducing to the first octant. One
+/// division, no library call; the selects compile to blends, so there is no branch.
+inline float fastAtan2(float y, float x)
+{
+  const float ax = std::fabs(x);
+  const float ay = std::fabs(y);
+  const float mx = std::max(ax, ay);
+  const float mn = std::min(ax, ay);
+  // mx == 0 only for the origin; std::atan2(0, 0) is 0 as well.
+  const float a = mx > 0.0f ? mn / mx : 0.0f;
+  const float s = a * a;
+  float r = 0.9999772310256958f +
+            s * (-0.33262282609939575f +
+                 s * (0.19354033470153809f +
+                      s * (-0.11642635613679886f + s * (0.052647195756435394f + s * -0.011719069443643093f))));
+  r *= a;
+  r = ay > ax ? 1.57079632679489662f - r : r;
+  r = x < 0.0f ? 3.14159265358979324f - r : r;
+  return y < 0.0f ? -r : r;
+}
+
+}  // namespace depth_filter_scan_converter

@@ -1,0 +1,68 @@
+// Projection of a depth cloud onto a laser scan in the robot's frame (ROS-free).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <vector>
+
+#include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/parameters.h"
+
+namespace depth_filter_scan_converter
+{
+/// Fills the ranges (and intensities) of a scan from a cloud.
+///
+/// Rules, all in the reference frame (z up):
+/// - a point is an obstacle when floor_height+min_height <= z <= floor_height+max_height and
+///   range_min <= hypot(x, y) <= range_max and angle_min <= atan2(y, x) <= angle_max;
+/// - with hole_detection, a point lower than floor_height-hole_depth is a hole: its obstacle
+///   is where the ray camera origin -> point crosses z = floor_height (range and angle limits
+///   then apply to that crossing);
+/// - beam i covers the angles nearest to angle_min + i*angle_increment (round to nearest),
+///   clamped to the last beam, so a point on angle_max stays in bounds;
+/// - each beam keeps its closest obstacle; beams without one read noReturnValue();
+/// - NaN / Inf points are skipped.
+/// Beam angles come from fastAtan2 (error < kFastAtan2MaxError) and the arithmetic is float, so
+/// a point within a few micro-radians (or micrometres) of a border may land on either side.
+///
+/// Not thread-safe: the object keeps its work buffers between calls to avoid allocations.
+class Projector
+{
+public:
+  /// Throws std::invalid_argument (naming the parameter) if params are invalid.
+  explicit Projector(const Parameters& params = Parameters());
+
+  /// Throws std::invalid_argument and keeps the old parameters if params are invalid.
+  void setParameters(const Parameters& params);
+  const Parameters& parameters() const { return params_; }
+
+  /// camera_to_reference maps a point of the cloud's frame into the reference frame, at the
+  /// cloud's stamp. `ranges` is resized to beamCount(). `intensities`, if given, is resized to
+  /// beamCount() when the view has an intensity field (value of the closest point, 0 where there
+  /// is no return) and cleared otherwise. `kept_points`, if given, receives x, y, z (reference
+  /// frame) of every point that passed the filters, hole crossings included.
+  void project(const CloudView& cloud, const Eigen::Isometry3d& camera_to_reference, std::vector<float>& ranges,
+               std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr);
+
+private:
+  struct Frame;
+  template <typename T, bool kHole, bool kIndex, bool kKeep>
+  void run(const CloudView& cloud, const Frame& frame, std::vector<float>* kept_points);
+  template <typename T, bool kHole>
+  void dispatchOutputs(const CloudView& cloud, const Frame& frame, bool index, std::vector<float>* kept_points);
+
+  Parameters params_;
+  std::vector<float> best_r2_;
+  std::vector<std::uint32_t> best_index_;
+};
+
+/// The straightforward per-point converter (Eigen transform in double, then std::atan2 and
+/// std::hypot for every point, field type looked up per point), with the same rules as
+/// Projector. Baseline for benchmarks and an independent check in tests.
+void referenceProject(const Parameters& params, const CloudView& cloud, const Eigen::Isometry3d& camera_to_reference,
+                      std::vector<float>& ranges, std::vector<float>* intensities = nullptr);
+
+/// Reads one value of a field as double (any PointField datatype).
+double readField(const std::uint8_t* p, FieldType type);
+
+}  // namespace depth_filter_scan_converter

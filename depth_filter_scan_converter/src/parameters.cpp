@@ -1,0 +1,57 @@
+#include "depth_filter_scan_converter/parameters.h"
+
+#include <limits>
+#include <stdexcept>
+
+namespace depth_filter_scan_converter
+{
+namespace
+{
+void require(bool ok, const std::string& name, const std::string& why)
+{
+  if (!ok)
+    throw std::invalid_argument("parameter '" + name + "' " + why);
+}
+}  // namespace
+
+void Parameters::validate() const
+{
+  require(!reference_frame.empty(), "reference_frame", "must not be empty");
+  require(std::isfinite(floor_height), "floor_height", "must be finite");
+  // Heights may be +/-inf ("no limit") but not NaN.
+  require(!std::isnan(min_height), "min_height", "must not be NaN");
+  require(!std::isnan(max_height), "max_height", "must not be NaN");
+  require(min_height < max_height, "min_height", "must be smaller than max_height");
+  require(std::isfinite(angle_min), "angle_min", "must be finite");
+  require(std::isfinite(angle_max), "angle_max", "must be finite");
+  require(angle_min < angle_max, "angle_min", "must be smaller than angle_max");
+  require(std::isfinite(angle_increment) && angle_increment > 0.0, "angle_increment",
+          "must be a finite value > 0");
+  require((angle_max - angle_min) / angle_increment < 1e6, "angle_increment",
+          "gives more than one million beams");
+  require(std::isfinite(range_min) && range_min >= 0.0, "range_min", "must be finite and >= 0");
+  require(!std::isnan(range_max), "range_max", "must not be NaN");
+  require(range_min < range_max, "range_min", "must be smaller than range_max");
+  require(std::isfinite(hole_depth) && hole_depth >= 0.0, "hole_depth", "must be finite and >= 0");
+  require(std::isfinite(transform_tolerance) && transform_tolerance >= 0.0, "transform_tolerance",
+          "must be finite and >= 0");
+  require(row_stride >= 1, "row_stride", "must be >= 1");
+  require(column_stride >= 1, "column_stride", "must be >= 1");
+  require(std::isfinite(inf_epsilon) && inf_epsilon >= 0.0, "inf_epsilon", "must be finite and >= 0");
+  require(use_inf || std::isfinite(range_max), "range_max",
+          "must be finite when use_inf is false (no return = range_max + inf_epsilon)");
+  require(std::isfinite(tf_buffer_duration) && tf_buffer_duration > 0.0, "tf_buffer_duration",
+          "must be finite and > 0");
+}
+
+std::size_t Parameters::beamCount() const
+{
+  return static_cast<std::size_t>(std::lround((angle_max - angle_min) / angle_increment)) + 1;
+}
+
+float Parameters::noReturnValue() const
+{
+  return use_inf ? std::numeric_limits<float>::infinity() : static_cast<float>(range_max + inf_epsilon);
+}
+
+}  // namespace depth_filter_scan_converter

@@ -1,0 +1,62 @@
+// The straightforward converter: what a per-point implementation looks like. Kept as the
+// benchmark baseline and as an independent implementation for the tests.
+#include <cmath>
+#include <limits>
+
+#include "depth_filter_scan_converter/projector.h"
+
+namespace depth_filter_scan_converter
+{
+void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isometry3d& T, std::vector<float>& ranges,
+                      std::vector<float>* intensities)
+{
+  const std::size_t beams = p.beamCount();
+  ranges.assign(beams, std::numeric_limits<float>::infinity());
+  std::vector<double> best(beams, std::numeric_limits<double>::infinity());
+  const bool with_intensity = intensities && v.has_intensity;
+  if (intensities)
+    intensities->assign(with_intensity ? beams : 0, 0.0f);
+  const Eigen::Vector3d origin = T.translation();
+
+  for (std::uint32_t r = 0; r < v.height; r += p.row_stride)
+  {
+    for (std::uint32_t c = 0; c < v.width; c += p.column_stride)
+    {
+      const std::uint8_t* pt = v.data + static_cast<std::size_t>(r) * v.row_step + static_cast<std::size_t>(c) * v.point_step;
+      const Eigen::Vector3d cam(readField(pt + v.x_offset, v.xyz_type), readField(pt + v.y_offset, v.xyz_type),
+                                readField(pt + v.z_offset, v.xyz_type));
+      Eigen::Vector3d q = T * cam;
+      double range = std::hypot(q.x(), q.y());
+      double angle = std::atan2(q.y(), q.x());
+      if (!q.allFinite())
+        continue;
+      const bool in_band = q.z() >= p.floor_height + p.min_height && q.z() <= p.floor_height + p.max_height;
+      if (!in_band)
+      {
+        const bool is_hole = p.hole_detection && q.z() < p.floor_height - p.hole_depth && origin.z() > p.floor_height;
+        if (!is_hole)
+          continue;
+        const double t = (p.floor_height - origin.z()) / (q.z() - origin.z());
+        q = origin + t * (q - origin);
+        range = std::hypot(q.x(), q.y());
+        angle = std::atan2(q.y(), q.x());
+      }
+      if (range < p.range_min || range > p.range_max || angle < p.angle_min || angle > p.angle_max)
+        continue;
+      std::size_t bin = static_cast<std::size_t>(std::lround((angle - p.angle_min) / p.angle_increment));
+      if (bin >= beams)
+        bin = beams - 1;
+      if (range < best[bin])
+      {
+        best[bin] = range;
+        if (with_intensity)
+          (*intensities)[bin] = static_cast<float>(readField(pt + v.intensity_offset, v.intensity_type));
+      }
+    }
+  }
+  const float no_return = p.noReturnValue();
+  for (std::size_t b = 0; b < beams; ++b)
+    ranges[b] = std::isinf(best[b]) ? no_return : static_cast<float>(best[b]);
+}
+
+}  // namespace depth_filter_scan_converter

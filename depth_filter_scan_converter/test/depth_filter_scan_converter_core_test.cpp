@@ -1,0 +1,774 @@
+// Tests of the ROS-free core: parameters, cloud layout checks, projection.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/fast_atan2.h"
+#include "depth_filter_scan_converter/parameters.h"
+#include "depth_filter_scan_converter/projector.h"
+#include "pcd_reader.h"
+
+namespace dfsc = depth_filter_scan_converter;
+using Eigen::Vector3d;
+using Points = std::vector<Vector3d>;
+
+namespace
+{
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+const double kDeg = M_PI / 180.0;
+
+// Camera optical frame (z forward, x right, y down) at `height` above the reference origin,
+// pitched down by `pitch_down`, rolled by `roll` (about the viewing direction), turned by `yaw`.
+Eigen::Isometry3d cameraMount(double height, double pitch_down, double roll = 0.0, double yaw = 0.0,
+                              double x = 0.0, double y = 0.0)
+{
+  Eigen::Matrix3d optical_to_body;
+  optical_to_body << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = (Eigen::AngleAxisd(yaw, Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch_down, Vector3d::UnitY()) *
+                Eigen::AngleAxisd(roll, Vector3d::UnitX()))
+                   .toRotationMatrix() *
+               optical_to_body;
+  t.translation() = Vector3d(x, y, height);
+  return t;
+}
+
+// A cloud laid out like a PointCloud2: x, y, z of type T at x_offset, then a float32 intensity.
+struct TestCloud
+{
+  dfsc::CloudLayout layout;
+  std::vector<std::uint8_t> data;
+
+  dfsc::CloudView view(const std::string& intensity_field = "") const
+  {
+    dfsc::CloudView v;
+    const std::string reason = dfsc::makeCloudView(layout, data.data(), data.size(), intensity_field, v);
+    EXPECT_EQ(reason, "");
+    return v;
+  }
+};
+
+template <typename T>
+TestCloud makeCloud(const Points& pts, std::uint32_t width, std::uint32_t height, std::uint32_t x_offset = 0,
+                    std::uint32_t extra_step = 0, std::uint32_t row_padding = 0, std::vector<float> intensity = {})
+{
+  EXPECT_EQ(pts.size(), static_cast<std::size_t>(width) * height);
+  const std::uint8_t type = sizeof(T) == 4 ? 7 : 8;
+  TestCloud c;
+  c.layout.width = width;
+  c.layout.height = height;
+  const std::uint32_t i_off = x_offset + 3 * sizeof(T);
+  c.layout.point_step = i_off + 4 + extra_step;
+  c.layout.row_step = width * c.layout.point_step + row_padding;
+  c.layout.fields = { { "x", x_offset, type, 1 },
+                      { "y", static_cast<std::uint32_t>(x_offset + sizeof(T)), type, 1 },
+                      { "z", static_cast<std::uint32_t>(x_offset + 2 * sizeof(T)), type, 1 },
+                      { "intensity", i_off, 7, 1 } };
+  c.data.assign(static_cast<std::size_t>(c.layout.row_step) * height, 0xAB);
+  for (std::uint32_t r = 0; r < height; ++r)
+    for (std::uint32_t col = 0; col < width; ++col)
+    {
+      const std::size_t i = static_cast<std::size_t>(r) * width + col;
+      std::uint8_t* p = &c.data[static_cast<std::size_t>(r) * c.layout.row_step + col * c.layout.point_step];
+      const T xyz[3] = { static_cast<T>(pts[i].x()), static_cast<T>(pts[i].y()), static_cast<T>(pts[i].z()) };
+      std::memcpy(p + x_offset, xyz, sizeof xyz);
+      const float in = intensity.empty() ? static_cast<float>(i) : intensity[i];
+      std::memcpy(p + i_off, &in, sizeof in);
+    }
+  return c;
+}
+
+TestCloud makeCloud(const Points& pts)
+{
+  return makeCloud<float>(pts, static_cast<std::uint32_t>(pts.size()), 1);
+}
+
+// Points given in the reference frame, expressed in the camera frame.
+Points toCamera(const Points& ref_points, const Eigen::Isometry3d& camera_to_reference)
+{
+  Points out;
+  for (const auto& p : ref_points)
+    out.push_back(camera_to_reference.inverse() * p);
+  return out;
+}
+
+// Ray-cast scene in the reference frame: floor z = 0, optional wall x = wall_x, boxes.
+struct Box
+{
+  Vector3d lo, hi;
+};
+struct Scene
+{
+  bool floor = true;
+  double wall_x = kInf;
+  std::vector<Box> boxes;
+
+  double hit(const Vector3d& o, const Vector3d& d) const
+  {
+    double best = kInf;
+    if (floor && d.z() < -1e-12)
+    {
+      const double t = -o.z() / d.z();
+      if (t > 0)
+        best = std::min(best, t);
+    }
+    if (std::isfinite(wall_x) && d.x() > 1e-12)
+    {
+      const double t = (wall_x - o.x()) / d.x();
+      if (t > 0)
+        best = std::min(best, t);
+    }
+    for (const auto& b : boxes)
+    {
+      double t0 = 0, t1 = kInf;
+      for (int k = 0; k < 3; ++k)
+      {
+        if (std::fabs(d[k]) < 1e-12)
+        {
+          if (o[k] < b.lo[k] || o[k] > b.hi[k])
+            t0 = kInf;
+          continue;
+        }
+        double a = (b.lo[k] - o[k]) / d[k], c = (b.hi[k] - o[k]) / d[k];
+        if (a > c)
+          std::swap(a, c);
+        t0 = std::max(t0, a);
+        t1 = std::min(t1, c);
+      }
+      if (t0 <= t1 && t0 > 0)
+        best = std::min(best, t0);
+    }
+    return best;
+  }
+};
+
+// Organized cloud (camera frame) of a pinhole camera with the given horizontal field of view.
+Points render(const Scene& scene, const Eigen::Isometry3d& cam, int width, int height, double hfov = 60 * kDeg)
+{
+  const double f = (width / 2.0) / std::tan(hfov / 2.0);
+  Points out;
+  for (int v = 0; v < height; ++v)
+    for (int u = 0; u < width; ++u)
+    {
+      const Vector3d d_cam((u - (width - 1) / 2.0) / f, (v - (height - 1) / 2.0) / f, 1.0);
+      const Vector3d d = cam.linear() * d_cam;
+      const double t = scene.hit(cam.translation(), d);
+      out.push_back(std::isfinite(t) ? Vector3d(t * d_cam) : Vector3d(kNaN, kNaN, kNaN));
+    }
+  return out;
+}
+
+std::size_t countFinite(const std::vector<float>& r)
+{
+  std::size_t n = 0;
+  for (float v : r)
+    n += std::isfinite(v) ? 1 : 0;
+  return n;
+}
+
+std::size_t binOf(const dfsc::Parameters& p, double angle)
+{
+  return static_cast<std::size_t>(std::lround((angle - p.angle_min) / p.angle_increment));
+}
+
+std::vector<float> project(const dfsc::Parameters& p, const TestCloud& c, const Eigen::Isometry3d& t)
+{
+  dfsc::Projector proj(p);
+  std::vector<float> ranges;
+  proj.project(c.view(), t, ranges);
+  return ranges;
+}
+
+// Core and reference may differ for a point within micro-units of a border; count such bins.
+std::size_t countDisagreements(const std::vector<float>& a, const std::vector<float>& b, double tol = 1e-4)
+{
+  EXPECT_EQ(a.size(), b.size());
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
+  {
+    if (std::isinf(a[i]) && std::isinf(b[i]))
+      continue;
+    if (!(std::fabs(a[i] - b[i]) <= tol * std::max(1.0f, std::fabs(b[i]))))
+      ++n;
+  }
+  return n;
+}
+}  // namespace
+
+// ---------------------------------------------------------------- parameters
+
+TEST(Parameters, DefaultsAreValidAndFollowTheFencepostRule)
+{
+  dfsc::Parameters p;
+  EXPECT_NO_THROW(p.validate());
+  EXPECT_EQ(p.beamCount(), 1441u);
+  p.angle_min = 0.0;
+  p.angle_max = 1.0;
+  p.angle_increment = 0.3;  // 3.33 increments: round -> 3, plus the fencepost
+  EXPECT_EQ(p.beamCount(), 4u);
+}
+
+TEST(Parameters, ValidateNamesTheBadParameter)
+{
+  auto expectBad = [](const std::function<void(dfsc::Parameters&)>& change, const std::string& name) {
+    dfsc::Parameters p;
+    change(p);
+    try
+    {
+      p.validate();
+      ADD_FAILURE() << "no exception for " << name;
+    }
+    catch (const std::invalid_argument& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("'" + name + "'"), std::string::npos) << e.what();
+    }
+  };
+  expectBad([](auto& p) { p.min_height = 2.0; }, "min_height");
+  expectBad([](auto& p) { p.max_height = kNaN; }, "max_height");
+  expectBad([](auto& p) { p.angle_min = 4.0; }, "angle_min");
+  expectBad([](auto& p) { p.angle_increment = 0.0; }, "angle_increment");
+  expectBad([](auto& p) { p.range_min = -1.0; }, "range_min");
+  expectBad([](auto& p) { p.range_min = 20.0; }, "range_min");
+  expectBad([](auto& p) { p.hole_depth = -0.1; }, "hole_depth");
+  expectBad([](auto& p) { p.transform_tolerance = -1.0; }, "transform_tolerance");
+  expectBad([](auto& p) { p.row_stride = 0; }, "row_stride");
+  expectBad([](auto& p) { p.column_stride = -2; }, "column_stride");
+  expectBad([](auto& p) { p.inf_epsilon = -1.0; }, "inf_epsilon");
+  expectBad([](auto& p) { p.reference_frame = ""; }, "reference_frame");
+  expectBad([](auto& p) { p.floor_height = kInf; }, "floor_height");
+  expectBad(
+      [](auto& p) {
+        p.use_inf = false;
+        p.range_max = kInf;
+      },
+      "range_max");
+  // "No limit" is spelled +/-inf and is valid.
+  dfsc::Parameters p;
+  p.min_height = -kInf;
+  p.max_height = kInf;
+  p.range_max = kInf;
+  EXPECT_NO_THROW(p.validate());
+}
+
+TEST(Projector, SetParametersRejectsInvalidAndKeepsTheOldOnes)
+{
+  dfsc::Parameters p;
+  p.max_height = 0.7;
+  dfsc::Projector proj(p);
+  dfsc::Parameters bad = p;
+  bad.min_height = 0.9;
+  EXPECT_THROW(proj.setParameters(bad), std::invalid_argument);
+  EXPECT_DOUBLE_EQ(proj.parameters().max_height, 0.7);
+  EXPECT_DOUBLE_EQ(proj.parameters().min_height, 0.05);
+  EXPECT_THROW(dfsc::Projector{ bad }, std::invalid_argument);
+}
+
+// ---------------------------------------------------------------- angle approximation
+
+TEST(FastAtan2, ErrorIsFarBelowHalfABeam)
+{
+  double worst = 0.0;
+  const double radii[] = { 1e-3, 0.5, 1.0, 7.3, 100.0 };
+  for (double r : radii)
+    for (int i = 0; i <= 200000; ++i)
+    {
+      const double a = -M_PI + 2 * M_PI * i / 200000.0;
+      const float x = static_cast<float>(r * std::cos(a)), y = static_cast<float>(r * std::sin(a));
+      const double err = std::fabs(dfsc::fastAtan2(y, x) - std::atan2(static_cast<double>(y), static_cast<double>(x)));
+      worst = std::max(worst, std::min(err, 2 * M_PI - err));  // +pi and -pi are one direction
+    }
+  EXPECT_LT(worst, dfsc::kFastAtan2MaxError);
+  EXPECT_LT(dfsc::kFastAtan2MaxError, 0.01 * (M_PI / 720.0) / 2.0);  // < 1 % of half a default beam
+  EXPECT_EQ(dfsc::fastAtan2(0.0f, 0.0f), 0.0f);
+  EXPECT_FLOAT_EQ(dfsc::fastAtan2(0.0f, -1.0f), static_cast<float>(M_PI));
+  EXPECT_FLOAT_EQ(dfsc::fastAtan2(1.0f, 0.0f), static_cast<float>(M_PI / 2));
+  EXPECT_FLOAT_EQ(dfsc::fastAtan2(-1.0f, 0.0f), static_cast<float>(-M_PI / 2));
+}
+
+// ---------------------------------------------------------------- analytic cases
+
+TEST(Projector, CameraPitched30DegOverEmptyFloorGivesNoReturn)
+{
+  const Eigen::Isometry3d cam = cameraMount(1.0, 30 * kDeg);
+  const Points pts = render(Scene{}, cam, 320, 163);
+  std::size_t valid = 0;
+  for (const auto& p : pts)
+    valid += std::isfinite(p.x()) ? 1 : 0;
+  ASSERT_GT(valid, pts.size() * 9 / 10);  // the camera does see the floor
+  const TestCloud cloud = makeCloud<float>(pts, 320, 163);
+
+  dfsc::Parameters p;
+  const std::vector<float> ranges = project(p, cloud, cam);
+  ASSERT_EQ(ranges.size(), p.beamCount());
+  for (float r : ranges)
+    EXPECT_TRUE(std::isinf(r) && r > 0);
+
+  // Same floor, band lowered to include it: now it shows, so the test above is not vacuous.
+  p.min_height = -0.01;
+  EXPECT_GT(countFinite(project(p, cloud, cam)), 100u);
+}
+
+TEST(Projector, WallAtKnownDistance)
+{
+  Scene scene;
+  scene.wall_x = 2.0;
+  const Eigen::Isometry3d cam = cameraMount(0.5, 0.0);
+  const TestCloud cloud = makeCloud<float>(render(scene, cam, 320, 163), 320, 163);
+  dfsc::Parameters p;
+  const std::vector<float> ranges = project(p, cloud, cam);
+  std::size_t seen = 0;
+  for (std::size_t i = 0; i < ranges.size(); ++i)
+  {
+    const double a = p.angle_min + i * p.angle_increment;
+    if (std::fabs(a) < 28 * kDeg)
+    {
+      ASSERT_TRUE(std::isfinite(ranges[i])) << "beam " << i;
+      EXPECT_NEAR(ranges[i] * std::cos(a), 2.0, 0.01) << "beam " << i;
+      ++seen;
+    }
+    else if (std::fabs(a) > 31 * kDeg)
+    {
+      EXPECT_TRUE(std::isinf(ranges[i])) << "beam " << i;
+    }
+  }
+  EXPECT_GT(seen, 200u);
+  std::vector<float> ref;
+  dfsc::referenceProject(p, cloud.view(), cam, ref);
+  EXPECT_LE(countDisagreements(ranges, ref), 2u);
+}
+
+TEST(Projector, TableTopJustInsideAndJustOutsideTheBand)
+{
+  dfsc::Parameters p;
+  p.floor_height = -0.147;
+  p.min_height = 0.05;
+  p.max_height = 0.8;
+  const double lo = p.floor_height + p.min_height, hi = p.floor_height + p.max_height;
+  // One table top per direction, 1.5 m away: heights 2 mm inside or outside the band.
+  const double heights[] = { lo + 0.002, lo - 0.002, hi - 0.002, hi + 0.002 };
+  const double angles[] = { -0.4, -0.1, 0.2, 0.5 };
+  const bool expected[] = { true, false, true, false };
+  Points ref_pts;
+  for (int k = 0; k < 4; ++k)
+    for (int j = -3; j <= 3; ++j)  // a small patch, all at the same height
+      ref_pts.push_back(Vector3d(1.5 * std::cos(angles[k] + j * 0.001), 1.5 * std::sin(angles[k] + j * 0.001), heights[k]));
+  const Eigen::Isometry3d cam = cameraMount(0.9, 30 * kDeg, 0.0, 0.0, 0.1, 0.0);
+  const std::vector<float> ranges = project(p, makeCloud(toCamera(ref_pts, cam)), cam);
+  for (int k = 0; k < 4; ++k)
+  {
+    const std::size_t centre = binOf(p, angles[k]);
+    if (expected[k])
+    {
+      EXPECT_NEAR(ranges[centre], 1.5, 1e-4) << "table " << k;
+    }
+    for (std::size_t b = centre - 3; b <= centre + 3; ++b)
+    {
+      if (!expected[k])
+      {
+        EXPECT_TRUE(std::isinf(ranges[b])) << "table " << k;
+      }
+      else if (std::isfinite(ranges[b]))
+      {
+        EXPECT_NEAR(ranges[b], 1.5, 1e-4) << "table " << k;
+      }
+    }
+  }
+  EXPECT_GE(countFinite(ranges), 2u * 2u);
+  EXPECT_LE(countFinite(ranges), 2u * 3u);  // 7 points 1 mrad apart cover 2 or 3 beams of 4.4 mrad
+}
+
+TEST(Projector, HoleBecomesObstacleWhereTheCameraRayMeetsTheFloor)
+{
+  const Eigen::Isometry3d cam = cameraMount(1.0, 30 * kDeg);
+  const Vector3d hole(2.0, 0.3, -0.3);  // 30 cm below the floor
+  const Vector3d shallow(2.0, -0.5, -0.03);  // 3 cm below the floor: not a hole
+  const TestCloud cloud = makeCloud(toCamera({ hole, shallow }, cam));
+  dfsc::Parameters p;
+  EXPECT_EQ(countFinite(project(p, cloud, cam)), 0u);  // hole detection is off by default
+
+  p.hole_detection = true;
+  p.hole_depth = 0.05;
+  dfsc::Projector proj(p);
+  std::vector<float> ranges, kept;
+  proj.project(cloud.view(), cam, ranges, nullptr, &kept);
+  // Ray from (0, 0, 1) through (2, 0.3, -0.3) crosses z = 0 at t = 1 / 1.3.
+  const Vector3d crossing = cam.translation() + (hole - cam.translation()) / 1.3;
+  EXPECT_NEAR(crossing.z(), 0.0, 1e-12);
+  EXPECT_EQ(countFinite(ranges), 1u);
+  EXPECT_NEAR(ranges[binOf(p, std::atan2(crossing.y(), crossing.x()))], std::hypot(crossing.x(), crossing.y()), 1e-4);
+  ASSERT_EQ(kept.size(), 3u);
+  EXPECT_NEAR(kept[0], crossing.x(), 1e-4);
+  EXPECT_NEAR(kept[1], crossing.y(), 1e-4);
+  EXPECT_NEAR(kept[2], 0.0, 1e-6);
+
+  // Range limits apply to the crossing, not to the hole point.
+  p.range_max = 1.5;
+  EXPECT_EQ(countFinite(project(p, cloud, cam)), 0u);
+
+  // A camera below the floor sees no hole in front of it.
+  p.range_max = 10.0;
+  p.floor_height = 1.5;
+  p.min_height = 2.0;
+  p.max_height = 3.0;
+  EXPECT_EQ(countFinite(project(p, cloud, cam)), 0u);
+}
+
+TEST(Projector, PointExactlyOnAngleMaxStaysInBounds)
+{
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  {
+    dfsc::Parameters p;  // -pi .. pi: the point behind the robot has atan2 = +pi
+    const std::vector<float> ranges = project(p, makeCloud({ Vector3d(-2.0, 0.0, 0.5) }), identity);
+    ASSERT_EQ(ranges.size(), 1441u);
+    EXPECT_FLOAT_EQ(ranges.back(), 2.0f);
+    EXPECT_EQ(countFinite(ranges), 1u);
+  }
+  {
+    dfsc::Parameters p;
+    p.angle_min = -1.0;
+    p.angle_max = 1.0;
+    p.angle_increment = 0.01;
+    const Vector3d on_max(2.0 * std::cos(1.0), 2.0 * std::sin(1.0), 0.5);
+    const Vector3d on_min(3.0 * std::cos(-1.0), 3.0 * std::sin(-1.0), 0.5);
+    const std::vector<float> ranges = project(p, makeCloud({ on_max, on_min }), identity);
+    ASSERT_EQ(ranges.size(), 201u);
+    EXPECT_FLOAT_EQ(ranges.back(), 2.0f);
+    EXPECT_FLOAT_EQ(ranges.front(), 3.0f);
+    EXPECT_EQ(countFinite(ranges), 2u);
+  }
+  {
+    dfsc::Parameters p;  // limits that are not a whole number of increments apart
+    p.angle_min = 0.0;
+    p.angle_max = 1.0;
+    p.angle_increment = 0.3;
+    const std::vector<float> ranges =
+        project(p, makeCloud({ Vector3d(std::cos(1.0), std::sin(1.0), 0.5), Vector3d(std::cos(1.2), std::sin(1.2), 0.5) }),
+                identity);
+    ASSERT_EQ(ranges.size(), 4u);
+    EXPECT_FLOAT_EQ(ranges[3], 1.0f);  // 1.0 rad -> beam 3 (0.9 rad), the point at 1.2 rad is outside
+    EXPECT_EQ(countFinite(ranges), 1u);
+  }
+}
+
+TEST(Projector, NanAndInfPointsAreSkipped)
+{
+  Points pts(16, Vector3d(kNaN, kNaN, kNaN));
+  pts[3] = Vector3d(kInf, 0.0, 0.5);
+  pts[4] = Vector3d(1.0, -kInf, 0.5);
+  pts[5] = Vector3d(1.0, 0.0, kInf);
+  pts[6] = Vector3d(1.0, 0.0, -kInf);
+  pts[7] = Vector3d(kNaN, 0.0, 0.5);
+  pts[9] = Vector3d(1.0, 1.0, 0.5);
+  const TestCloud cloud = makeCloud<float>(pts, 4, 4);
+  dfsc::Parameters p;
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  std::vector<float> ranges = project(p, cloud, identity);
+  EXPECT_EQ(countFinite(ranges), 1u);
+  EXPECT_FLOAT_EQ(ranges[binOf(p, M_PI / 4)], static_cast<float>(std::sqrt(2.0)));
+  // With every limit open, infinite points must still not slip through.
+  p.min_height = -kInf;
+  p.max_height = kInf;
+  p.range_max = kInf;
+  p.hole_detection = true;
+  ranges = project(p, cloud, cameraMount(1.0, 0.3));
+  EXPECT_EQ(countFinite(ranges), 1u);
+  for (float r : ranges)
+    EXPECT_FALSE(std::isnan(r));
+}
+
+TEST(Projector, EmptyCloudGivesAllNoReturn)
+{
+  dfsc::Parameters p;
+  for (const auto& wh : { std::pair<std::uint32_t, std::uint32_t>{ 0, 0 }, { 10, 0 }, { 0, 1 } })
+  {
+    const TestCloud cloud = makeCloud<float>({}, wh.first, wh.second);
+    const std::vector<float> ranges = project(p, cloud, cameraMount(1.0, 0.0));
+    ASSERT_EQ(ranges.size(), p.beamCount());
+    EXPECT_EQ(countFinite(ranges), 0u);
+  }
+}
+
+TEST(Projector, UnorganizedCloudMatchesOrganizedOne)
+{
+  Scene scene;
+  scene.wall_x = 3.0;
+  scene.boxes.push_back({ Vector3d(1.0, -0.5, 0.0), Vector3d(1.4, 0.1, 0.6) });
+  const Eigen::Isometry3d cam = cameraMount(0.8, 20 * kDeg);
+  const Points pts = render(scene, cam, 64, 48);
+  dfsc::Parameters p;
+  const std::vector<float> organized = project(p, makeCloud<float>(pts, 64, 48), cam);
+  const std::vector<float> unorganized = project(p, makeCloud(pts), cam);
+  EXPECT_EQ(organized, unorganized);
+  EXPECT_GT(countFinite(organized), 50u);
+  // The box is closer than the wall in its directions.
+  float nearest = std::numeric_limits<float>::infinity();
+  for (std::size_t b = binOf(p, -2 * kDeg); b <= binOf(p, 2 * kDeg); ++b)  // columns are ~1 degree apart
+    nearest = std::min(nearest, organized[b]);
+  EXPECT_NEAR(nearest, 1.0, 0.01);
+}
+
+TEST(Projector, Float64FieldsGiveTheSameScan)
+{
+  Scene scene;
+  scene.wall_x = 2.5;
+  scene.boxes.push_back({ Vector3d(1.2, 0.2, 0.0), Vector3d(1.6, 0.8, 0.4) });
+  const Eigen::Isometry3d cam = cameraMount(0.6, 15 * kDeg, 5 * kDeg);
+  const Points pts = render(scene, cam, 80, 60);
+  dfsc::Parameters p;
+  const std::vector<float> f32 = project(p, makeCloud<float>(pts, 80, 60), cam);
+  const std::vector<float> f64 = project(p, makeCloud<double>(pts, 80, 60), cam);
+  EXPECT_GT(countFinite(f32), 50u);
+  EXPECT_EQ(countDisagreements(f32, f64, 1e-5), 0u);
+}
+
+TEST(Projector, OddPointStepAndRowPadding)
+{
+  Scene scene;
+  scene.wall_x = 2.0;
+  const Eigen::Isometry3d cam = cameraMount(0.5, 10 * kDeg);
+  const Points pts = render(scene, cam, 40, 30);
+  dfsc::Parameters p;
+  const std::vector<float> plain = project(p, makeCloud<float>(pts, 40, 30), cam);
+  // x at byte 3 (unaligned), point_step 3 + 12 + 4 + 6 = 25, 7 padding bytes per row.
+  const TestCloud odd = makeCloud<float>(pts, 40, 30, 3, 6, 7);
+  EXPECT_EQ(odd.layout.point_step, 25u);
+  EXPECT_EQ(project(p, odd, cam), plain);
+  const TestCloud odd64 = makeCloud<double>(pts, 40, 30, 5, 1, 3);
+  EXPECT_EQ(countDisagreements(project(p, odd64, cam), plain, 1e-5), 0u);
+  EXPECT_GT(countFinite(plain), 50u);
+}
+
+TEST(Projector, RowAndColumnStridesSkipPoints)
+{
+  // 6 x 6 organized cloud, all NaN except two obstacle points.
+  Points pts(36, Vector3d(kNaN, kNaN, kNaN));
+  pts[1 * 6 + 1] = Vector3d(1.0, 0.0, 0.5);  // row 1, column 1: skipped by row_stride 2
+  pts[2 * 6 + 3] = Vector3d(0.0, 2.0, 0.5);  // row 2, column 3: kept by row 2 / column 3 strides
+  const TestCloud cloud = makeCloud<float>(pts, 6, 6);
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  dfsc::Parameters p;
+  EXPECT_EQ(countFinite(project(p, cloud, identity)), 2u);
+  p.row_stride = 2;
+  p.column_stride = 3;
+  const std::vector<float> ranges = project(p, cloud, identity);
+  EXPECT_EQ(countFinite(ranges), 1u);
+  EXPECT_FLOAT_EQ(ranges[binOf(p, M_PI / 2)], 2.0f);
+  p.column_stride = 2;
+  EXPECT_EQ(countFinite(project(p, cloud, identity)), 0u);
+
+  // On a rendered scene, strides agree with the reference that applies the same strides.
+  Scene scene;
+  scene.wall_x = 2.2;
+  scene.boxes.push_back({ Vector3d(1.0, -0.3, 0.0), Vector3d(1.3, 0.3, 0.3) });
+  const Eigen::Isometry3d cam = cameraMount(0.7, 25 * kDeg);
+  const TestCloud big = makeCloud<float>(render(scene, cam, 160, 120), 160, 120);
+  p.row_stride = 3;
+  p.column_stride = 2;
+  std::vector<float> ref;
+  dfsc::referenceProject(p, big.view(), cam, ref);
+  const std::vector<float> fast = project(p, big, cam);
+  EXPECT_GT(countFinite(fast), 50u);
+  EXPECT_LE(countDisagreements(fast, ref), 2u);
+}
+
+TEST(Projector, UseInfFalseWritesRangeMaxPlusEpsilon)
+{
+  dfsc::Parameters p;
+  p.use_inf = false;
+  p.range_max = 6.0;
+  p.inf_epsilon = 0.5;
+  const std::vector<float> ranges = project(p, makeCloud({ Vector3d(1.0, 0.0, 0.5) }), Eigen::Isometry3d::Identity());
+  EXPECT_FLOAT_EQ(ranges[binOf(p, 0.0)], 1.0f);
+  for (std::size_t i = 0; i < ranges.size(); ++i)
+  {
+    if (i != binOf(p, 0.0))
+    {
+      ASSERT_FLOAT_EQ(ranges[i], 6.5f);
+    }
+  }
+}
+
+TEST(Projector, RangeLimitsArePlanarDistances)
+{
+  dfsc::Parameters p;
+  p.range_min = 1.0;
+  p.range_max = 3.0;
+  const Points pts = { Vector3d(0.9, 0.0, 0.5), Vector3d(0.0, 1.1, 0.9), Vector3d(-3.1, 0.0, 0.5), Vector3d(0.0, -2.9, 0.1) };
+  const std::vector<float> ranges = project(p, makeCloud(pts), Eigen::Isometry3d::Identity());
+  EXPECT_EQ(countFinite(ranges), 2u);
+  EXPECT_FLOAT_EQ(ranges[binOf(p, M_PI / 2)], 1.1f);
+  EXPECT_FLOAT_EQ(ranges[binOf(p, -M_PI / 2)], 2.9f);
+}
+
+TEST(Projector, IntensityOfTheClosestPoint)
+{
+  const Points pts = { Vector3d(2.0, 0.0, 0.5), Vector3d(1.0, 0.0, 0.5), Vector3d(3.0, 0.0, 0.5), Vector3d(0.0, 1.0, 0.5) };
+  const TestCloud cloud = makeCloud<float>(pts, 4, 1, 0, 0, 0, { 5.0f, 9.0f, 7.0f, 3.0f });
+  dfsc::Parameters p;
+  dfsc::Projector proj(p);
+  std::vector<float> ranges, intensities;
+  proj.project(cloud.view("intensity"), Eigen::Isometry3d::Identity(), ranges, &intensities);
+  ASSERT_EQ(intensities.size(), ranges.size());
+  EXPECT_FLOAT_EQ(intensities[binOf(p, 0.0)], 9.0f);
+  EXPECT_FLOAT_EQ(intensities[binOf(p, M_PI / 2)], 3.0f);
+  EXPECT_FLOAT_EQ(intensities[binOf(p, 1.0)], 0.0f);
+  // No intensity field selected: the output is empty.
+  proj.project(cloud.view(), Eigen::Isometry3d::Identity(), ranges, &intensities);
+  EXPECT_TRUE(intensities.empty());
+}
+
+TEST(Projector, KeptPointsAreTheFilteredPointsInTheReferenceFrame)
+{
+  const Eigen::Isometry3d cam = cameraMount(1.0, 20 * kDeg, 0.0, 0.3, 0.2, -0.1);
+  const Points ref_pts = { Vector3d(1.0, 0.2, 0.4), Vector3d(1.5, 0.2, 0.01), Vector3d(2.0, -1.0, 0.9) };
+  dfsc::Projector proj{ dfsc::Parameters() };
+  std::vector<float> ranges, kept;
+  proj.project(makeCloud(toCamera(ref_pts, cam)).view(), cam, ranges, nullptr, &kept);
+  ASSERT_EQ(kept.size(), 6u);
+  EXPECT_NEAR(kept[0], 1.0, 1e-5);
+  EXPECT_NEAR(kept[1], 0.2, 1e-5);
+  EXPECT_NEAR(kept[2], 0.4, 1e-5);
+  EXPECT_NEAR(kept[3], 2.0, 1e-5);
+  EXPECT_NEAR(kept[4], -1.0, 1e-5);
+  EXPECT_NEAR(kept[5], 0.9, 1e-5);
+}
+
+TEST(Projector, BuffersReusedAcrossCallsDoNotLeak)
+{
+  dfsc::Parameters p;
+  dfsc::Projector proj(p);
+  std::vector<float> ranges;
+  proj.project(makeCloud({ Vector3d(1.0, 0.0, 0.5) }).view(), Eigen::Isometry3d::Identity(), ranges);
+  EXPECT_EQ(countFinite(ranges), 1u);
+  proj.project(makeCloud({ Vector3d(0.0, 1.0, 0.5) }).view(), Eigen::Isometry3d::Identity(), ranges);
+  EXPECT_EQ(countFinite(ranges), 1u);
+  EXPECT_FLOAT_EQ(ranges[binOf(p, M_PI / 2)], 1.0f);
+  p.angle_min = -1.0;
+  p.angle_max = 1.0;
+  proj.setParameters(p);
+  proj.project(makeCloud({ Vector3d(0.0, 1.0, 0.5) }).view(), Eigen::Isometry3d::Identity(), ranges);
+  EXPECT_EQ(ranges.size(), p.beamCount());
+  EXPECT_EQ(countFinite(ranges), 0u);
+}
+
+TEST(Projector, AgreesWithTheReferenceOnRandomMounts)
+{
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::size_t finite = 0;
+  for (int trial = 0; trial < 20; ++trial)
+  {
+    const Eigen::Isometry3d cam =
+        cameraMount(0.3 + 0.7 * (u(rng) + 1), 40 * kDeg * u(rng), 30 * kDeg * u(rng), M_PI * u(rng), u(rng), u(rng));
+    Points pts;
+    for (int i = 0; i < 3000; ++i)
+      pts.push_back(Vector3d(3 * u(rng), 3 * u(rng), 0.5 + 3 * (u(rng) + 1)));
+    dfsc::Parameters p;
+    p.floor_height = 0.2 * u(rng);
+    p.hole_detection = trial % 2 == 0;
+    p.angle_min = -2.5 + 0.5 * u(rng);
+    p.angle_max = 2.0 + 0.5 * u(rng);
+    p.angle_increment = 0.01 + 0.005 * u(rng);
+    p.range_min = 0.2;
+    p.range_max = 4.0;
+    const TestCloud cloud = makeCloud(pts);
+    std::vector<float> ref;
+    dfsc::referenceProject(p, cloud.view(), cam, ref);
+    const std::vector<float> fast = project(p, cloud, cam);
+    finite += countFinite(fast);
+    // A few bins may differ where a point lies within micro-units of a border (see projector.h).
+    EXPECT_LE(countDisagreements(fast, ref), 2u) << "trial " << trial;
+  }
+  EXPECT_GT(finite, 1000u);
+}
+
+// ---------------------------------------------------------------- layout validation
+
+namespace
+{
+TestCloud goodCloud()
+{
+  return makeCloud<float>(Points(6, Vector3d(1.0, 0.0, 0.5)), 3, 2);
+}
+std::string reasonOf(const TestCloud& c, std::size_t size_delta = 0)
+{
+  dfsc::CloudView v;
+  return dfsc::makeCloudView(c.layout, c.data.data(), c.data.size() - size_delta, "", v);
+}
+}  // namespace
+
+TEST(CloudValidation, GoodCloudIsAccepted)
+{
+  EXPECT_EQ(reasonOf(goodCloud()), "");
+}
+
+TEST(CloudValidation, MalformedCloudsAreRejectedWithAReason)
+{
+  auto expectReason = [](const TestCloud& c, const std::string& part, std::size_t size_delta = 0) {
+    const std::string reason = reasonOf(c, size_delta);
+    EXPECT_NE(reason.find(part), std::string::npos) << "reason: '" << reason << "', expected '" << part << "'";
+  };
+  TestCloud c = goodCloud();
+  c.layout.fields.erase(c.layout.fields.begin() + 2);
+  expectReason(c, "field 'z' is missing");
+
+  c = goodCloud();
+  c.layout.fields[0].datatype = 5;  // INT32
+  expectReason(c, "field 'x' has datatype 5");
+
+  c = goodCloud();
+  c.layout.fields[1].datatype = 8;
+  expectReason(c, "do not share one datatype");
+
+  c = goodCloud();
+  c.layout.is_bigendian = true;
+  expectReason(c, "is_bigendian");
+
+  expectReason(goodCloud(), "does not match row_step*height", 4);
+
+  c = goodCloud();
+  c.layout.height = 3;  // claims more rows than the data holds
+  expectReason(c, "does not match row_step*height");
+
+  c = goodCloud();
+  c.layout.row_step = 8;
+  expectReason(c, "row_step 8 is smaller than width*point_step");
+
+  c = goodCloud();
+  c.layout.fields[2].offset = 14;  // z would end beyond point_step 16
+  expectReason(c, "field 'z' (offset 14) does not fit in point_step 16");
+
+  c = goodCloud();
+  c.layout.width = 0;
+  expectReason(c, "width*height is 0 but data holds");
+}
+
+TEST(CloudValidation, MissingIntensityFieldIsANoteNotAnError)
+{
+  const TestCloud c = goodCloud();
+  dfsc::CloudView v;
+  std::string note;
+  EXPECT_EQ(dfsc::makeCloudView(c.layout, c.data.data(), c.data.size(), "reflectivity", v, &note), "");
+  EXPECT_FALSE(v.has_intensity);
+  EXPECT_NE(note.find("'reflectivity' is not in the cloud"), std::string::npos);
+  EXPECT_EQ(dfsc::makeCloudView(c.layout, c.data.data(), c.data.size(), "intensity", v, &note), "");
+  EXPECT_TRUE(v.has_intensity);
+  EXPECT_EQ(note, "");
+}
+
+// ---------------------------------------------------------------- real data
+#include "five_people_test.inc"
+
+int main(int argc, char** argv)
+{
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
