@@ -1,0 +1,98 @@
+"""rviz starts with config/rviz/pipeline.rviz under Xvfb and draws the scans it is fed.
+
+The test starts its own roscore, publishes tf (odom -> base_link) and one scan or cloud on
+every topic the rviz config shows (each a ring at its own radius), takes a screenshot with
+imagemagick and checks that the picture is not blank and that the enabled scan displays'
+colours are on it. Set RVIZ_SCREENSHOT_OUT to keep the picture.
+"""
+import math
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(HERE)
+sys.path.insert(0, os.path.join(REPO, "scripts"))
+CONFIG = os.path.join(REPO, "config", "rviz", "pipeline.rviz")
+
+
+def publish(config):
+    """Runs in a subprocess: tf and a ring per display topic, 5 Hz, until killed."""
+    import numpy as np
+    import rospy
+    import tf2_ros
+    from geometry_msgs.msg import TransformStamped
+    from sensor_msgs import point_cloud2
+    from sensor_msgs.msg import LaserScan, PointCloud2
+    from laserscan_toolbox.rviz_shot import displays
+    rospy.init_node("fake_pipeline")
+    pubs = []
+    for i, (cls, topic, _, _) in enumerate(displays(config)):
+        kind = LaserScan if cls == "rviz/LaserScan" else PointCloud2
+        pubs.append((kind, rospy.Publisher(topic, kind, queue_size=2), 1.0 + 0.6 * i))
+    br = tf2_ros.TransformBroadcaster()
+    rate = rospy.Rate(5)
+    while not rospy.is_shutdown():
+        now = rospy.Time.now()
+        t = TransformStamped()
+        t.header.stamp = now
+        t.header.frame_id = "odom"
+        t.child_frame_id = "base_link"
+        t.transform.rotation.w = 1.0
+        br.sendTransform(t)
+        for kind, pub, radius in pubs:
+            if kind is LaserScan:
+                m = LaserScan()
+                m.header.stamp = now
+                m.header.frame_id = "base_link"
+                m.angle_min, m.angle_max = -math.pi, math.pi
+                m.angle_increment = math.pi / 180
+                m.range_max = 30.0
+                m.ranges = [radius] * 361
+                pub.publish(m)
+            else:
+                a = np.linspace(-math.pi, math.pi, 2000)
+                pts = np.stack([radius * np.cos(a), radius * np.sin(a), 0.3 + 0 * a], 1)
+                h = rospy.Header(stamp=now, frame_id="base_link")
+                pub.publish(point_cloud2.create_cloud_xyz32(h, pts.tolist()))
+        rate.sleep()
+
+
+def test_rviz_draws_the_pipeline(tmp_path):
+    for tool in ("xvfb-run", "rviz", "import", "roscore"):
+        assert shutil.which(tool), "%s is missing (Debian packages xvfb, rviz, imagemagick)" % tool
+    from laserscan_toolbox.rosrun import free_port, stop_process
+    from laserscan_toolbox.rviz_shot import displays, image_stats, screenshot
+    port = free_port()
+    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_HOME=str(tmp_path),
+               ROS_LOG_DIR=str(tmp_path / "log"), ROS_IP="127.0.0.1",
+               PYTHONPATH=os.path.join(REPO, "scripts") + os.pathsep +
+               os.environ.get("PYTHONPATH", ""))
+    core = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+    pub = None
+    try:
+        time.sleep(2.0)
+        pub = subprocess.Popen([sys.executable, __file__, "--publish", CONFIG], env=env,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                               start_new_session=True)
+        shot = screenshot(CONFIG, str(tmp_path / "rviz.png"), delay=12.0, env=env)
+    finally:
+        stop_process(pub)
+        stop_process(core)
+    colours = [c for _, _, c, enabled in displays(CONFIG) if enabled]
+    st = image_stats(shot, colours)
+    keep = os.environ.get("RVIZ_SCREENSHOT_OUT")
+    if keep:
+        shutil.copy(shot, keep)
+    assert st["std"] > 10, "the screenshot is blank"
+    for c, n in st["counts"].items():
+        assert n > 200, "display colour %s barely on screen (%d pixels): %s" % (c, n, st)
+
+
+if __name__ == "__main__" and sys.argv[1:2] == ["--publish"]:
+    publish(sys.argv[2])
