@@ -186,8 +186,14 @@ class Session:
 
 
 def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progress=True,
-                 record_types=("sensor_msgs/LaserScan",), label="run", tail=1.5):
-    """One playback through one launch. Returns the raw records (no analysis)."""
+                 record_types=("sensor_msgs/LaserScan",), label="run", tail=1.5, select=None):
+    """One playback through one launch. Returns the raw records (no analysis).
+
+    select(topic, type) says which of the launch's outputs to record (default: those
+    whose type is in record_types)."""
+    if select is None:
+        def select(topic, type_):
+            return type_ in record_types
     wd = session.workdir
     launch = Launch(launch_file, launch_args, os.path.join(wd, label + "_roslaunch.log")).start()
     rec = None
@@ -196,7 +202,7 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
         pubs = launch.wait_ready(master, ignore_nodes=(_own_name(),))
         types = dict(master.getTopicTypes())
         outputs = {t: types.get(t, "?") for t in pubs if t not in SKIP_TOPICS}
-        to_record = {t: ty for t, ty in outputs.items() if ty in record_types}
+        to_record = {t: ty for t, ty in outputs.items() if select(t, ty)}
         rec = Recorder(to_record)
         wait_connected(rec)
         procs = launch.processes()
@@ -219,7 +225,7 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
                 if nodes and topic not in outputs and topic not in SKIP_TOPICS \
                         and topic not in bag_topics:
                     outputs[topic] = types.get(topic, "?")
-                    if outputs[topic] in record_types:
+                    if select(topic, outputs[topic]):
                         rec.add({topic: outputs[topic]})
 
         _wait_playback(player, bag_info, progress, label, late_outputs)
@@ -464,7 +470,7 @@ def check_thresholds(results, options, topics):
 def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, output=None,
              rate=1.0, progress=True, thresholds=None, threshold_topics=None,
              band=None, tol=0.05, beam_window=1, max_scans=300, plots=True, workdir=None,
-             log=print):
+             log=print, map_topics=("/lidar_scan", "/merged_scan"), map_resolution=0.05):
     """Runs everything and writes results.json (+ report.md and plots when ``plots``)."""
     t_start = time.time()
     thresholds = thresholds or {}
@@ -499,6 +505,9 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
         results["band"] = list(band)
         results["accuracy"], examples = ground_truth_stats(
             run, info, scenario, band, tol=tol, beam_window=beam_window, max_scans=max_scans)
+        if output and map_topics:
+            results["mapping"] = run_mapping(run, info, scenario, results, map_topics,
+                                             os.path.join(output, "maps"), log=log)
     topics = threshold_topics or _default_threshold_topics(results)
     checks = check_thresholds(results, thresholds, topics)
     results["thresholds"] = [{"ok": ok, "check": text} for ok, text in checks]
@@ -512,6 +521,45 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
             from . import report
             report.write_report(results, examples, run, output)
     return results
+
+
+def run_mapping(run, info, scenario, results, map_topics, outdir, resolution=0.05,
+                min_dt=0.2, log=print):
+    """The mapping experiment on the recorded scans (true poses, ground-truth grid)."""
+    from . import mapping
+    streams = {}
+    for t in map_topics:
+        scans = run["records"].get(t, {}).get("scans")
+        if scans:
+            streams["%s" % t] = [s for s in scans if info["start"] <= s["stamp"] <= info["end"]]
+    if not streams:
+        return {"skipped": "none of %s was recorded" % ", ".join(map_topics)}
+    log("mapping experiment on %s" % ", ".join(streams))
+    floor, zlo, zhi = results["band"]
+    plane = None
+    for a in results.get("accuracy", {}).values():
+        if a.get("frame", BASE_FRAME) != BASE_FRAME and "z_band" in a:
+            plane = tuple(a["z_band"])
+            break
+    # reference: ideal scans in the robot's band along the path, at the fused stream's stamps
+    last_topic = list(streams)[-1]
+    ideal, last = [], -1e18
+    for s in streams[last_topic]:
+        if s["stamp"] - last < min_dt:
+            continue
+        last = s["stamp"]
+        r = scenario.ideal_scan(s["stamp"], s["angle_min"], s["angle_max"], s["angle_increment"],
+                                s["range_min"], s["range_max"], zlo, zhi,
+                                pose=scenario.true_pose(s["stamp"]))
+        ideal.append(dict(s, ranges=np.asarray(r, float)))
+    ts = np.arange(info["start"], info["end"], 0.1)
+    traj = np.array([scenario.true_pose(t)[:2] for t in ts])
+    fig = mapping.mapping_experiment(streams, scenario, outdir, resolution=resolution,
+                                     band=(zlo, zhi), plane_band=plane, trajectory=traj,
+                                     ideal_scans=ideal)
+    fig["plane_band"] = plane
+    fig["band"] = (zlo, zhi)
+    return fig
 
 
 def _default_threshold_topics(results):
@@ -560,6 +608,9 @@ def main(argv=None):
                    help="beams either side searched when matching ranges (default 1)")
     p.add_argument("--max-scans", type=int, default=300,
                    help="scans per topic compared with ground truth (evenly spaced)")
+    p.add_argument("--map-topics", nargs="*", default=["/lidar_scan", "/merged_scan"],
+                   metavar="TOPIC", help="scan topics mapped at the true poses when the bag has "
+                   "ground truth (default: /lidar_scan /merged_scan; none to skip)")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--no-plots", action="store_true")
     for opt, _, _, _, hlp in THRESHOLDS:
@@ -585,7 +636,7 @@ def main(argv=None):
         res = evaluate(a.bag, a.launch, a.arg, a.config, a.output, a.rate, not a.no_progress,
                        thresholds, a.threshold_topics, a.band, a.tolerance, a.beam_window,
                        a.max_scans, plots=not a.no_plots,
-                       log=lambda m: print(m, file=sys.stderr))
+                       log=lambda m: print(m, file=sys.stderr), map_topics=a.map_topics)
     except RunError as e:
         print("evaluate_bag: %s" % e, file=sys.stderr)
         return 3

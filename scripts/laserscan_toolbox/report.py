@@ -87,6 +87,23 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
                   "before it (+5 cm); missed: an ideal return with nothing in the output at "
                   "or before it. Only beams that returned at least once in the run count "
                   "(the sensor's field of view).", "", accuracy_table(results), ""]
+    m = results.get("mapping")
+    if m and "skipped" not in m:
+        lines += ["## Mapping at the true poses (paper Fig. 6)", "",
+                  "Occupancy grids (%.2f m cells) from each scan stream at the true poses, "
+                  "against the ground-truth obstacles of the band %.2f-%.2f m. IoU: occupied "
+                  "cells against the map a perfect sensor in that band would build along the "
+                  "same path (a cell matches within one cell); 3D obstacles: its cells above "
+                  "the lidars' plane (table tops, overhangs) found in the map; false cells: "
+                  "occupied with no obstacle within one cell in the ground truth." % (
+                      0.05, m["band"][0], m["band"][1]), "",
+                  table(["scan", "IoU", "IoU vs filled truth", "obstacles found %",
+                         "3D obstacles found %", "false cells", "map file"],
+                        [[n, fmt(v["iou"], 1, 2), fmt(v["iou_truth"], 1, 2),
+                          fmt(v["found"], 100), fmt(v["found_3d"], 100), v["false_cells"],
+                          "maps/" + m["files"][n]]
+                         for n, v in m.items() if isinstance(v, dict) and "iou" in v]),
+                  "", "![maps](maps/maps.png)", ""]
     lines += ["## Inputs (bag)", "",
               table(["topic", "type", "messages", "rate Hz", "kB/s"],
                     [[t, v["type"], v["count"], fmt(v["rate_hz"]), fmt(v["bytes_per_s"], 1e-3)]
@@ -166,6 +183,12 @@ def summary_text(res):
         lines.append("  %-28s median error %s cm, p95 %s cm, false %s%%, missed %s%%" % (
             t, fmt(a["median_error"], 100, 2), fmt(a["p95_error"], 100, 1),
             fmt(a["false_rate"], 100, 2), fmt(a["missed_rate"], 100, 1)))
+    m = res.get("mapping")
+    if m and "skipped" not in m:
+        for n, v in m.items():
+            if isinstance(v, dict) and "iou" in v:
+                lines.append("  map from %-19s IoU %s, 3D obstacles found %s%%, false cells %d"
+                             % (n, fmt(v["iou"], 1, 2), fmt(v["found_3d"], 100), v["false_cells"]))
     for c in res["thresholds"]:
         lines.append("  %s %s" % ("PASS" if c["ok"] else "FAIL", c["check"]))
     return "\n".join(lines)
