@@ -470,7 +470,8 @@ def check_thresholds(results, options, topics):
 def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, output=None,
              rate=1.0, progress=True, thresholds=None, threshold_topics=None,
              band=None, tol=0.05, beam_window=1, max_scans=300, plots=True, workdir=None,
-             log=print, map_topics=("/lidar_scan", "/merged_scan"), map_resolution=0.05):
+             log=print, map_topics=("/lidar_scan", "/merged_scan"), map_resolution=0.05,
+             save_scans=False):
     """Runs everything and writes results.json (+ report.md and plots when ``plots``)."""
     t_start = time.time()
     thresholds = thresholds or {}
@@ -517,6 +518,8 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
         os.makedirs(output, exist_ok=True)
         with open(os.path.join(output, "results.json"), "w") as f:
             json.dump(results, f, indent=1, default=_json_default)
+        if save_scans:
+            save_scan_records(run, os.path.join(output, "scans.npz"))
         if plots:
             from . import report
             report.write_report(results, examples, run, output)
@@ -560,6 +563,36 @@ def run_mapping(run, info, scenario, results, map_topics, outdir, resolution=0.0
     fig["plane_band"] = plane
     fig["band"] = (zlo, zhi)
     return fig
+
+
+def save_scan_records(run, path):
+    """Every recorded LaserScan as arrays: <topic>/stamp, /ranges (scans x beams; scans of
+    another length are left out), /angle_min, /angle_increment, /range_min, /range_max, and
+    /recv_sim (receive time on the bag clock)."""
+    arrays = {}
+    for topic, d in run["records"].items():
+        scans = d["scans"]
+        if not scans:
+            continue
+        n = len(scans[0]["ranges"])
+        scans = [s for s in scans if len(s["ranges"]) == n]
+        key = topic.strip("/").replace("/", "__")
+        arrays[key + "/stamp"] = np.array([s["stamp"] for s in scans])
+        arrays[key + "/ranges"] = np.stack([s["ranges"] for s in scans])
+        for f in ("angle_min", "angle_increment", "range_min", "range_max"):
+            arrays[key + "/" + f] = np.float64(scans[0][f])
+        arrays[key + "/frame"] = np.array(scans[0]["frame"])
+    np.savez_compressed(path, **arrays)
+
+
+def load_scan_records(path):
+    """{topic: {"stamp", "ranges", "angle_min", ...}} from save_scan_records' file."""
+    out = {}
+    with np.load(path) as z:
+        for k in z.files:
+            key, field = k.rsplit("/", 1)
+            out.setdefault("/" + key.replace("__", "/"), {})[field] = z[k]
+    return out
 
 
 def _default_threshold_topics(results):
@@ -611,6 +644,8 @@ def main(argv=None):
     p.add_argument("--map-topics", nargs="*", default=["/lidar_scan", "/merged_scan"],
                    metavar="TOPIC", help="scan topics mapped at the true poses when the bag has "
                    "ground truth (default: /lidar_scan /merged_scan; none to skip)")
+    p.add_argument("--save-scans", action="store_true",
+                   help="also write every recorded scan to OUTPUT/scans.npz")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--no-plots", action="store_true")
     for opt, _, _, _, hlp in THRESHOLDS:
@@ -624,6 +659,9 @@ def main(argv=None):
     if not os.path.isfile(a.bag):
         print("evaluate_bag: %s: no such bag" % a.bag, file=sys.stderr)
         return 2
+    if a.save_scans and not a.output:
+        print("evaluate_bag: --save-scans needs --output", file=sys.stderr)
+        return 2
     if not os.path.isfile(a.launch):
         print("evaluate_bag: %s: no such launch file" % a.launch, file=sys.stderr)
         return 2
@@ -636,7 +674,8 @@ def main(argv=None):
         res = evaluate(a.bag, a.launch, a.arg, a.config, a.output, a.rate, not a.no_progress,
                        thresholds, a.threshold_topics, a.band, a.tolerance, a.beam_window,
                        a.max_scans, plots=not a.no_plots,
-                       log=lambda m: print(m, file=sys.stderr), map_topics=a.map_topics)
+                       log=lambda m: print(m, file=sys.stderr), map_topics=a.map_topics,
+                       save_scans=a.save_scans)
     except RunError as e:
         print("evaluate_bag: %s" % e, file=sys.stderr)
         return 3

@@ -192,3 +192,40 @@ def summary_text(res):
     for c in res["thresholds"]:
         lines.append("  %s %s" % ("PASS" if c["ok"] else "FAIL", c["check"]))
     return "\n".join(lines)
+
+
+def demo_summary(outdir, timing=""):
+    """Key figures of a demo run; also links the CPU experiment from report.md."""
+    import json
+    with open(os.path.join(outdir, "results.json")) as f:
+        res = json.load(f)
+    lines = ["Demo figures (%s)" % timing if timing else "Demo figures", summary_text(res)]
+    cpu_json = os.path.join(outdir, "cpu", "cpu_results.json")
+    if os.path.isfile(cpu_json):
+        with open(cpu_json) as f:
+            cpu = json.load(f)
+        lines.append("  CPU against depth points per camera (manager, merged-scan consumer):")
+        for r in cpu["rows"]:
+            m, w = r["merged"], r["raw"]
+            lines.append("    %6dk points: manager %s%%; consumer receives %s kB/s merged vs "
+                         "%s MB/s raw" % (r["points_per_camera"] // 1000,
+                                          fmt(m["manager_cpu_percent"]),
+                                          fmt(m["bytes_per_s"], 1e-3), fmt(w["bytes_per_s"], 1e-6, 2)))
+        report = os.path.join(outdir, "report.md")
+        with open(report) as f:
+            text = f.read()
+        if "cpu/cpu_experiment.md" not in text:
+            with open(report, "a") as f:
+                f.write("\n## CPU against depth points (paper Fig. 8)\n\nSee "
+                        "[cpu/cpu_experiment.md](cpu/cpu_experiment.md).\n\n"
+                        "![cpu against points](cpu/cpu_vs_points.png)\n")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    import argparse
+    p = argparse.ArgumentParser(description="Print the key figures of a demo output folder.")
+    p.add_argument("--demo-summary", metavar="DIR", required=True)
+    p.add_argument("--timing", default="")
+    a = p.parse_args()
+    print(demo_summary(a.demo_summary, a.timing))
