@@ -57,7 +57,7 @@ CONVERTER = {
     "inf_epsilon": Key("float", 1.0, "m", lo=0.0),
     "intensity_field": Key("str", ""),
     "publish_filtered_cloud": Key("bool", False),
-    "queue_size": Key("int", 5, lo=1),
+    "tf_buffer_duration": Key("float", 10.0, "s", lo=0.0, lo_open=True),
 }
 CONVERTER_PAIRS = [("min_height", "max_height"), ("angle_min", "angle_max"),
                    ("range_min", "range_max")]
@@ -68,13 +68,12 @@ MERGER = {
     "angle_max": Key("float", math.pi, "rad", angle=True),
     "angle_increment": Key("float", math.pi / 720, "rad", lo=0.0, lo_open=True),
     "range_min": Key("float", 0.0, "m", lo=0.0),
-    "range_max": Key("float", INF, "m", lo=0.0, lo_open=True),
+    "range_max": Key("float", 30.0, "m", lo=0.0, lo_open=True),
     "use_inf": Key("bool", True),
     "inf_epsilon": Key("float", 1.0, "m", lo=0.0),
     "odom_topic": Key("str", "odom", doc="empty disables motion compensation"),
     "odom_queue_size": Key("int", 100, lo=1),
     "publish_rate": Key("float", 0.0, "Hz", lo=0.0),
-    "transform_tolerance": Key("float", 0.1, "s", lo=0.0),
     "sources": None,  # checked by check_sources
 }
 MERGER_PAIRS = [("angle_min", "angle_max"), ("range_min", "range_max")]
@@ -82,7 +81,7 @@ MERGER_PAIRS = [("angle_min", "angle_max"), ("range_min", "range_max")]
 SOURCE = {
     "name": Key("str", None, nonempty=True),
     "topic": Key("str", None, nonempty=True),
-    "timeout": Key("float", 0.5, "s", lo=0.0),
+    "timeout": Key("float", 1.0, "s", lo=0.0),
     "angle_min": Key("float", -math.pi, "rad", angle=True),
     "angle_max": Key("float", math.pi, "rad", angle=True),
     "range_min": Key("float", 0.0, "m", lo=0.0),
@@ -288,8 +287,10 @@ def check_data(data, kind=None, tf_tree=None, topic_frames=None):
         if tf_tree is not None:
             for path, frame in frames_of(prefix, k, params):
                 if isinstance(frame, str) and frame and not tf_tree.has(frame):
-                    problems.append("%s: frame '%s' is not in the tf tree (frames: %s)"
-                                    % (path, frame, ", ".join(sorted(tf_tree.frames())[:12])))
+                    known = sorted(tf_tree.frames())
+                    problems.append("%s: frame '%s' is not in the tf tree (%s)" % (
+                        path, frame, "frames: " + ", ".join(known[:12]) if known
+                        else "the tree is empty: no /tf or /tf_static"))
             if k == "merger" and topic_frames is not None:
                 out_frame = params.get("output_frame", "base_link")
                 for path, topic in topics_of(prefix, k, params):
