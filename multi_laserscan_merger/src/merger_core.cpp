@@ -12,6 +12,7 @@ namespace
 {
 constexpr float kFInf = std::numeric_limits<float>::infinity();
 constexpr float kFNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr std::size_t kScratch = 16;  // power of two
 
 // The beams lie in the sensor's x-y plane (z = 0), and the output keeps only x and y:
 // the two rows and three useful columns of the 3D transform are all the hot loop needs.
@@ -25,6 +26,63 @@ Eigen::Matrix<float, 2, 3> planarPart(const Eigen::Isometry3d& t)
   return m;
 }
 
+
+// Pass 1 of addScan for one group of beams: output bin (or -1) and planar range of every beam.
+// Branch-free so that the compiler vectorises it; compiled for AVX-512, AVX2+FMA and the
+// baseline, the best one is picked at load time (the machine's CPU decides, not the build).
+// m = { m00 m01 m02 m10 m11 m12, and their per-beam steps (deskew; zero otherwise) }.
+// Beams inside the mask holding NaN, -Inf or a range below range_min get bin n_out
+// (pass 3 looks at them again); other beams left out get one of kScratch bins after it
+// (spread, so that pass 2 has no store-to-load chain through one bin). Scratch bins let
+// pass 2 run without a branch.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void
+projectBeams(std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
+             const float* __restrict sg, const float* __restrict m, float rmin, float rmax, float amin, float inv_inc,
+             int wrap, unsigned n_out, int* __restrict kg, float* __restrict og)
+{
+  constexpr float kTwoPi = static_cast<float>(2.0 * kPi);
+  const float m00 = m[0], m01 = m[1], m02 = m[2], m10 = m[3], m11 = m[4], m12 = m[5];
+  const float d00 = m[6], d01 = m[7], d02 = m[8], d10 = m[9], d11 = m[10], d12 = m[11];
+  for (std::size_t j = 0; j < len; ++j)
+  {
+    const float v = rg[j];
+    // Bitwise & on purpose: no short-circuit branches in the vectorised loop.
+    const int in_view = fg[j] > 0.5f;
+    const int above_min = v >= rmin;
+    const int ok = in_view & above_min & (v <= rmax);
+    const float r = ok ? v : 1.0f;
+    const float fj = static_cast<float>(j);
+    const float a00 = m00 + fj * d00, a01 = m01 + fj * d01, a02 = m02 + fj * d02;
+    const float a10 = m10 + fj * d10, a11 = m11 + fj * d11, a12 = m12 + fj * d12;
+    const float x = r * (a00 * cg[j] + a01 * sg[j]) + a02;
+    const float y = r * (a10 * cg[j] + a11 * sg[j]) + a12;
+    float rel = fastAtan2(y, x) - amin;
+    rel += rel < 0.0f ? kTwoPi : 0.0f;
+    rel -= rel >= kTwoPi ? kTwoPi : 0.0f;
+    int k = static_cast<int>(rel * inv_inc + 0.5f);
+    k -= k >= wrap ? wrap : 0;
+    og[j] = std::sqrt(x * x + y * y);
+    // -2 flags the rare beams that pass 3 looks at again (no second sweep over the scan).
+    const int skip = (in_view & (above_min ^ 1)) ? static_cast<int>(n_out) :
+                                                   static_cast<int>(n_out + 1 + (j & (kScratch - 1)));
+    kg[j] = (ok & (static_cast<unsigned>(k) < n_out)) ? k : skip;
+  }
+}
+
+// Output limits: beyond range_max is no return (+Inf or range_max + inf_epsilon), below
+// range_min is -Inf (REP 117: too close), NaN stays NaN. Vectorised like projectBeams.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void
+applyOutputLimits(const float* __restrict in, float* __restrict r, std::size_t n, float rmin, float rmax,
+                  float no_return)
+{
+  for (std::size_t k = 0; k < n; ++k)
+  {
+    float v = in[k];
+    v = v > rmax ? no_return : v;
+    v = v < rmin ? -kFInf : v;
+    r[k] = v;
+  }
+}
 }  // namespace
 
 std::size_t expectedBeamCount(const ScanView& s)
@@ -113,8 +171,14 @@ void MergerCore::updateCache(std::size_t source, const ScanView& scan)
     const double a = scan.angle_min + static_cast<double>(i) * scan.angle_increment;
     c.cos_a[i] = static_cast<float>(std::cos(a));
     c.sin_a[i] = static_cast<float>(std::sin(a));
-    c.in_fov[i] = sp.inFieldOfView(a) ? 1 : 0;
+    c.in_fov[i] = sp.inFieldOfView(a) ? 1.0f : 0.0f;
   }
+  c.first_in = 0;
+  while (c.first_in < c.n && c.in_fov[c.first_in] == 0.0f)
+    ++c.first_in;
+  c.end_in = c.n;
+  while (c.end_in > c.first_in && c.in_fov[c.end_in - 1] == 0.0f)
+    --c.end_in;
 }
 
 void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, const OdometryBuffer* odom,
@@ -124,9 +188,8 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
   const std::size_t n_src = params_.sources.size();
   status.assign(n_src, SourceStatus::kMissing);
   out.stamp = t_out;
-  out.ranges.assign(n_out_, kFInf);
-  ranges_ = &out.ranges;
-  intensities_ = &out.intensities;
+  // Scratch bins past the end take the beams left out (see projectBeams).
+  bins_.assign(n_out_ + 1 + kScratch, kFInf);
 
   bool any_intensity = false;
   for (std::size_t s = 0; s < n_src && s < inputs.size(); ++s)
@@ -145,9 +208,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     }
   }
   if (any_intensity)
-    out.intensities.assign(n_out_, 0.0f);
-  else
-    out.intensities.clear();
+    ibins_.assign(n_out_ + 1 + kScratch, 0.0f);
 
   const bool compensate = odom != nullptr && !odom->empty();
   Eigen::Isometry3d out_T_odom = Eigen::Isometry3d::Identity();  // P(t_out)^-1
@@ -221,34 +282,30 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
   }
 
   // Bins past one full turn are the same directions as the first ones (e.g. -pi and pi).
-  std::vector<float>& r = out.ranges;
+  std::vector<float>& r = bins_;
   if (n_circle_ != 0)
     for (std::size_t k = n_circle_; k < n_out_; ++k)
     {
       r[k] = r[k - n_circle_];
       if (any_intensity)
-        out.intensities[k] = out.intensities[k - n_circle_];
+        ibins_[k] = ibins_[k - n_circle_];
     }
 
   const OutputParams& o = params_.output;
   const float rmin = static_cast<float>(o.range_min);
   const float rmax = static_cast<float>(o.range_max);
   const float no_return = o.use_inf ? kFInf : static_cast<float>(o.range_max + o.inf_epsilon);
-  for (std::size_t k = 0; k < n_out_; ++k)
+  if (any_intensity)
   {
-    float v = r[k];
-    if (v > rmax)
-      v = kFInf;  // beyond the output's reach: no return
-    else if (v < rmin)
-      v = -kFInf;  // REP 117: too close
-    if (v == kFInf)
-    {
-      v = no_return;
-      if (any_intensity)
-        out.intensities[k] = 0.0f;
-    }
-    r[k] = v;
+    out.intensities.assign(ibins_.begin(), ibins_.begin() + static_cast<std::ptrdiff_t>(n_out_));
+    for (std::size_t k = 0; k < n_out_; ++k)
+      if (!(r[k] <= rmax))
+        out.intensities[k] = 0.0f;  // no return (NaN keeps its intensity 0 anyway)
   }
+  else
+    out.intensities.clear();
+  out.ranges.resize(n_out_);
+  applyOutputLimits(r.data(), out.ranges.data(), n_out_, rmin, rmax, no_return);
 }
 
 template <bool kInterpolate>
@@ -262,87 +319,142 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
   // Source limits only tighten the message's own.
   const float rmin = static_cast<float>(std::max(scan.range_min, sp.range_min));
   const float rmax = static_cast<float>(std::min(scan.range_max, sp.range_max));
-  // -Inf ("closer than the sensor can measure") is kept as an obstacle at the sensor's
-  // range_min, unless the source's own range_min is tighter: then everything closer
-  // than it (the robot's body, typically) is deliberately ignored.
-  const bool keep_too_close = !(sp.range_min > scan.range_min);
-  const float* ranges = scan.ranges;
-  const float* intens = scan.intensities;
-  float* bins = ranges_->data();
-  float* ibins = with_intensity ? intensities_->data() : nullptr;
   const float amin = out_angle_min_;
   const float inv_inc = out_inv_increment_;
-  const int n_circle = static_cast<int>(n_circle_);
-  const int n_out = static_cast<int>(n_out_);
+  // Bins from one full turn on are the first ones again; no wrap when the increment does not divide 2*pi.
+  const int wrap = n_circle_ != 0 ? static_cast<int>(n_circle_) : std::numeric_limits<int>::max();
+  const unsigned n_out = static_cast<unsigned>(n_out_);
   constexpr float kTwoPi = static_cast<float>(2.0 * kPi);
 
-  auto bin_of = [&](float x, float y) -> int {
+  auto bin_of = [=](float x, float y) -> int {
     float rel = fastAtan2(y, x) - amin;
-    if (rel < 0.0f)
-      rel += kTwoPi;
-    if (rel >= kTwoPi)
-      rel -= kTwoPi;
+    rel += rel < 0.0f ? kTwoPi : 0.0f;
+    rel -= rel >= kTwoPi ? kTwoPi : 0.0f;
     int k = static_cast<int>(rel * inv_inc + 0.5f);
-    if (n_circle != 0 && k >= n_circle)
-      k -= n_circle;
-    return (k >= 0 && k < n_out) ? k : -1;
+    k -= k >= wrap ? wrap : 0;
+    return k;
+  };
+  // Transform of beam i (border transform plus the per-beam step inside its group).
+  auto transform_of = [&](std::size_t i) {
+    const std::size_t g = i / group_size;
+    Eigen::Matrix<float, 2, 3> m = transforms[g];
+    if (kInterpolate)
+    {
+      const std::size_t b0 = g * group_size;
+      const std::size_t next = std::min(b0 + group_size, n - 1);
+      if (next > b0)
+        m += (transforms[g + 1] - transforms[g]) * (static_cast<float>(i - b0) / static_cast<float>(next - b0));
+    }
+    return m;
   };
 
+  if (bin_buffer_.size() < n)
+  {
+    bin_buffer_.resize(n);
+    range_buffer_.resize(n);
+    special_buffer_.resize(n);
+  }
+  int* kb = bin_buffer_.data();
+  float* rb = range_buffer_.data();
+  const float* ranges = scan.ranges;
+  const float* fov = c.in_fov.data();
+  const float* cs = c.cos_a.data();
+  const float* sn = c.sin_a.data();
+
+  // Pass 1 (vectorised): output bin and range of every beam.
   for (std::size_t b0 = 0, g = 0; b0 < n; b0 += group_size, ++g)
   {
     const Eigen::Matrix<float, 2, 3>& m = transforms[g];
-    float m00 = m(0, 0), m01 = m(0, 1), m02 = m(0, 2);
-    float m10 = m(1, 0), m11 = m(1, 1), m12 = m(1, 2);
-    const std::size_t b1 = std::min(n, b0 + group_size);
-    // Per-beam step of the transform towards the next border (kInterpolate only).
-    Eigen::Matrix<float, 2, 3> step = Eigen::Matrix<float, 2, 3>::Zero();
+    const float m00 = m(0, 0), m01 = m(0, 1), m02 = m(0, 2);
+    const float m10 = m(1, 0), m11 = m(1, 1), m12 = m(1, 2);
+    float d00 = 0.0f, d01 = 0.0f, d02 = 0.0f, d10 = 0.0f, d11 = 0.0f, d12 = 0.0f;
     if (kInterpolate)
     {
       const std::size_t next = std::min(b0 + group_size, n - 1);
       if (next > b0)
-        step = (transforms[g + 1] - m) / static_cast<float>(next - b0);
+      {
+        const Eigen::Matrix<float, 2, 3> step = (transforms[g + 1] - m) / static_cast<float>(next - b0);
+        d00 = step(0, 0), d01 = step(0, 1), d02 = step(0, 2);
+        d10 = step(1, 0), d11 = step(1, 1), d12 = step(1, 2);
+      }
     }
-    for (std::size_t i = b0; i < b1; ++i)
+    const std::size_t len = std::min(n, b0 + group_size) - b0;
+    const float m_row[12] = { m00, m01, m02, m10, m11, m12, d00, d01, d02, d10, d11, d12 };
+    projectBeams(len, ranges + b0, fov + b0, cs + b0, sn + b0, m_row, rmin, rmax, amin, inv_inc, wrap,
+                            n_out, kb + b0, rb + b0);
+  }
+
+  // Pass 2: keep the closest range per bin; a real range also replaces a NaN mark
+  // (bv < rr is false for a NaN bv). Without intensities the update is branch-free.
+  // Beams before the first and after the last one inside the mask are not visited.
+  float* bins = bins_.data();
+  float* ibins = with_intensity ? ibins_.data() : nullptr;
+  const int special_bin = static_cast<int>(n_out_);
+  const float* intens = scan.intensities;
+  std::uint32_t* special_list = special_buffer_.data();
+  std::size_t n_special = 0;
+  if (ibins == nullptr)
+  {
+    for (std::size_t i = c.first_in; i < c.end_in; ++i)
     {
-      if (kInterpolate && i != b0)
-      {
-        m00 += step(0, 0), m01 += step(0, 1), m02 += step(0, 2);
-        m10 += step(1, 0), m11 += step(1, 1), m12 += step(1, 2);
-      }
-      if (!c.in_fov[i])
-        continue;
-      float v = ranges[i];
-      const float ca = c.cos_a[i], sa = c.sin_a[i];
-      if (!(v >= rmin && v <= rmax))
-      {
-        if (v > rmax)
-          continue;  // no return (+Inf) or beyond the limits: the bin stays +Inf
-        if (v == -kFInf && keep_too_close)
-          v = rmin;
-        else
-        {
-          // Invalid (NaN, below range_min, or hidden by the source's range_min): the
-          // direction (a ray to infinity: rotation only) is marked NaN unless something real is there.
-          const int k = bin_of(m00 * ca + m01 * sa, m10 * ca + m11 * sa);
-          if (k >= 0 && bins[k] == kFInf)
-            bins[k] = kFNaN;
-          continue;
-        }
-      }
-      const float x = v * (m00 * ca + m01 * sa) + m02;
-      const float y = v * (m10 * ca + m11 * sa) + m12;
-      const int k = bin_of(x, y);
-      if (k < 0)
-        continue;
-      const float rr = std::sqrt(x * x + y * y);
-      const float bv = bins[k];
-      if (rr < bv || bv != bv)
+      const int k = kb[i];
+      special_list[n_special] = static_cast<std::uint32_t>(i);
+      n_special += k == special_bin ? 1 : 0;
+      const float bv = bins[k], rr = rb[i];
+      bins[k] = bv < rr ? bv : rr;
+    }
+  }
+  else
+  {
+    for (std::size_t i = c.first_in; i < c.end_in; ++i)
+    {
+      const int k = kb[i];
+      special_list[n_special] = static_cast<std::uint32_t>(i);
+      n_special += k == special_bin ? 1 : 0;
+      const float rr = rb[i];
+      if (!(bins[k] <= rr))
       {
         bins[k] = rr;
-        if (ibins != nullptr)
-          ibins[k] = intens[i];
+        ibins[k] = intens[i];
       }
     }
+  }
+
+  if (n_special == 0)
+    return;
+  // Pass 3, only for scans holding NaN, -Inf or readings below range_min.
+  // -Inf ("closer than the sensor can measure") is kept as an obstacle at the sensor's
+  // range_min, unless the source's own range_min is tighter: then everything closer
+  // than it (the robot's body, typically) is deliberately ignored like an invalid reading.
+  const bool keep_too_close = !(sp.range_min > scan.range_min);
+  for (std::size_t s_i = 0; s_i < n_special; ++s_i)
+  {
+    const std::size_t i = special_list[s_i];
+    const float v = ranges[i];
+    const Eigen::Matrix<float, 2, 3> m = transform_of(i);
+    const float ca = cs[i], sa = sn[i];
+    if (v == -std::numeric_limits<float>::infinity() && keep_too_close)
+    {
+      const float x = rmin * (m(0, 0) * ca + m(0, 1) * sa) + m(0, 2);
+      const float y = rmin * (m(1, 0) * ca + m(1, 1) * sa) + m(1, 2);
+      const int k = bin_of(x, y);
+      if (static_cast<unsigned>(k) < n_out)
+      {
+        const float rr = std::sqrt(x * x + y * y);
+        if (rr < bins[k] || bins[k] != bins[k])
+        {
+          bins[k] = rr;
+          if (ibins != nullptr)
+            ibins[k] = intens[i];
+        }
+      }
+      continue;
+    }
+    // Invalid: its direction (a ray to infinity: rotation only) is marked NaN
+    // unless something real (or another mark) is already there.
+    const int k = bin_of(m(0, 0) * ca + m(0, 1) * sa, m(1, 0) * ca + m(1, 1) * sa);
+    if (static_cast<unsigned>(k) < n_out && bins[k] == kFInf)
+      bins[k] = kFNaN;
   }
 }
 

@@ -12,22 +12,17 @@ inline float fastAtan2(float y, float x)
 {
   const float ax = x < 0.0f ? -x : x;
   const float ay = y < 0.0f ? -y : y;
+  // Selects instead of branches, so that loops calling this are vectorised.
   const float mx = ax > ay ? ax : ay;
   const float mn = ax > ay ? ay : ax;
-  if (mx == 0.0f)
-    return 0.0f;
-  const float a = mn / mx;
+  const float a = mn / (mx > 1e-30f ? mx : 1e-30f);
   const float s = a * a;
   float r = ((((-0.01172077f * s + 0.05265143f) * s - 0.11643014f) * s + 0.19354178f) * s - 0.33262304f) * s +
             0.99997723f;
   r *= a;
-  if (ay > ax)
-    r = 1.57079632679f - r;
-  if (x < 0.0f)
-    r = 3.14159265359f - r;
-  if (y < 0.0f)
-    r = -r;
-  return r;
+  r = ay > ax ? 1.57079632679f - r : r;
+  r = x < 0.0f ? 3.14159265359f - r : r;
+  return y < 0.0f ? -r : r;
 }
 
 }  // namespace multi_laserscan_merger

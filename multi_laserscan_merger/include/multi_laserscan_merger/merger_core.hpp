@@ -104,7 +104,7 @@ public:
 
   /// Beams per deskew group: the transform is computed exactly at every group border
   /// and interpolated linearly per beam in between.
-  static constexpr std::size_t kDeskewGroup = 16;
+  static constexpr std::size_t kDeskewGroup = 64;
 
 private:
   /// Per-source tables, rebuilt only when the scan geometry changes.
@@ -114,7 +114,8 @@ private:
     double angle_increment = 0.0;
     std::size_t n = 0;
     std::vector<float> cos_a, sin_a;
-    std::vector<std::uint8_t> in_fov;
+    std::size_t first_in = 0, end_in = 0;  ///< span of beams from the first to the last inside the mask
+    std::vector<float> in_fov;  ///< 1 inside the source's mask (float: keeps the hot loop vectorisable)
   };
   void updateCache(std::size_t source, const ScanView& scan);
   template <bool kInterpolate>
@@ -127,8 +128,10 @@ private:
   float out_angle_min_, out_inv_increment_;
   std::vector<SourceCache> caches_;
   std::vector<Eigen::Matrix<float, 2, 3>> group_transforms_;
-  std::vector<float>* ranges_ = nullptr;
-  std::vector<float>* intensities_ = nullptr;
+  std::vector<int> bin_buffer_;
+  std::vector<float> range_buffer_;
+  std::vector<std::uint32_t> special_buffer_;
+  std::vector<float> bins_, ibins_;  ///< fusion buffers: n_out bins + scratch bins
 };
 
 }  // namespace multi_laserscan_merger
