@@ -2,8 +2,10 @@
 
 #include <cfloat>
 #include <cmath>
+#include <algorithm>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include "depth_filter_scan_converter/fast_atan2.h"
 
@@ -91,64 +93,155 @@ void Projector::setParameters(const Parameters& params)
   params_ = params;
 }
 
+namespace
+{
+constexpr std::uint32_t kChunk = 256;
+
+// One chunk of points of a row, as plain float arrays (structure of arrays).
+struct alignas(64) Chunk
+{
+  float xs[kChunk], ys[kChunk], zs[kChunk], r2s[kChunk];
+  std::int32_t bins[kChunk];
+};
+
+// Passes 1 and 2 of Projector::run for n points starting at p, col_step bytes apart:
+//   1. gather x, y, z from the strided buffer (any point_step, float or double);
+//   2. transform, band / hole / range / angle tests, beam index. A rejected point gets an
+//      infinite squared range, so that pass 3 never keeps it. xs/ys/zs are overwritten with
+//      the point in the reference frame (for the filtered cloud).
+// Non-short-circuit & and selects only: no branch, so the compiler vectorizes pass 2.
+// kStep > 0 fixes the distance between points at compile time (the common 16- and 32-byte
+// layouts), which lets the compiler vectorize the gather as well.
+template <typename T, bool kHole, std::size_t kStep>
+__attribute__((always_inline)) inline void chunkKernel(const std::uint8_t* p, std::size_t col_step, std::uint32_t xo,
+                                                       std::uint32_t yo, std::uint32_t zo, std::uint32_t n,
+                                                       const Projector::Frame& f, Chunk& c)
+{
+  const std::size_t step = kStep > 0 ? kStep : col_step;
+  for (std::uint32_t i = 0; i < n; ++i)
+  {
+    c.xs[i] = load<T>(p + i * step + xo);
+    c.ys[i] = load<T>(p + i * step + yo);
+    c.zs[i] = load<T>(p + i * step + zo);
+  }
+  const float inf = std::numeric_limits<float>::infinity();
+  const float last_beam = static_cast<float>(f.beams - 1);
+  for (std::uint32_t i = 0; i < n; ++i)
+  {
+    const float x = c.xs[i], y = c.ys[i], z = c.zs[i];
+    float zr = f.r20 * x + f.r21 * y + f.r22 * z + f.t2;
+    float xr = f.r00 * x + f.r01 * y + f.r02 * z + f.t0;
+    float yr = f.r10 * x + f.r11 * y + f.r12 * z + f.t1;
+    bool ok = (zr >= f.z_lo) & (zr <= f.z_hi);  // false for NaN; bounds are finite, so also for Inf
+    if (kHole)
+    {
+      // A hole: the obstacle is where the camera ray meets the floor. The camera is above the
+      // floor (checked per cloud) and the point below it, so 0 < t < 1.
+      const bool hole = (zr < f.z_hole) & (zr > -FLT_MAX);
+      const float t = (f.floor_z - f.t2) / (zr - f.t2);
+      xr = hole ? f.t0 + t * (xr - f.t0) : xr;
+      yr = hole ? f.t1 + t * (yr - f.t1) : yr;
+      zr = hole ? f.floor_z : zr;
+      ok = ok | hole;
+    }
+    // Squared ranges: the square root is taken once per beam at the end.
+    const float r2 = xr * xr + yr * yr;
+    ok = ok & (r2 >= f.r2_min) & (r2 <= f.r2_max);
+    const float a = fastAtan2(yr, xr);
+    ok = ok & (a >= f.a_lo) & (a <= f.a_hi);
+    // Clamp before converting (NaN -> 0): the bounds check of the beam index, which also keeps a
+    // point on angle_max in the last beam.
+    float fb = (a - f.a_min) * f.inv_inc + 0.5f;
+    fb = fb > 0.0f ? fb : 0.0f;
+    fb = fb < last_beam ? fb : last_beam;
+    c.bins[i] = ok ? static_cast<std::int32_t>(fb) : 0;
+    c.r2s[i] = ok ? r2 : inf;
+    c.xs[i] = xr;
+    c.ys[i] = yr;
+    c.zs[i] = zr;
+  }
+}
+
+// The kernels are compiled twice and picked at load time by the CPU (ifunc): AVX2+FMA where
+// available, baseline x86-64 otherwise. No -march=native, so the binary runs anywhere.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define DFSC_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define DFSC_CLONES
+#endif
+#define DFSC_KERNEL(NAME, T, HOLE, STEP)                                                                              \
+  DFSC_CLONES void NAME(const std::uint8_t* p, std::size_t col_step, std::uint32_t xo, std::uint32_t yo,             \
+                        std::uint32_t zo, std::uint32_t n, const Projector::Frame& f, Chunk& c)                       \
+  {                                                                                                                   \
+    chunkKernel<T, HOLE, STEP>(p, col_step, xo, yo, zo, n, f, c);                                                     \
+  }
+DFSC_KERNEL(kernelFloat, float, false, 0)
+DFSC_KERNEL(kernelFloatHole, float, true, 0)
+DFSC_KERNEL(kernelFloat16, float, false, 16)
+DFSC_KERNEL(kernelFloat16Hole, float, true, 16)
+DFSC_KERNEL(kernelFloat32, float, false, 32)
+DFSC_KERNEL(kernelFloat32Hole, float, true, 32)
+DFSC_KERNEL(kernelDouble, double, false, 0)
+DFSC_KERNEL(kernelDoubleHole, double, true, 0)
+#undef DFSC_KERNEL
+
+using Kernel = void (*)(const std::uint8_t*, std::size_t, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t,
+                        const Projector::Frame&, Chunk&);
+
+// Chosen once per cloud: no per-point branch on the layout.
+template <typename T, bool kHole>
+Kernel pickKernel(std::size_t col_step)
+{
+  if constexpr (std::is_same_v<T, float>)
+  {
+    if (col_step == 16)
+      return kHole ? kernelFloat16Hole : kernelFloat16;
+    if (col_step == 32)
+      return kHole ? kernelFloat32Hole : kernelFloat32;
+    return kHole ? kernelFloatHole : kernelFloat;
+  }
+  else
+  {
+    return kHole ? kernelDoubleHole : kernelDouble;
+  }
+}
+}  // namespace
+
 template <typename T, bool kHole, bool kIndex, bool kKeep>
 void Projector::run(const CloudView& v, const Frame& f, std::vector<float>* kept)
 {
+  // Chunks of one row go through the branch-free kernel (passes 1 and 2), then pass 3 keeps
+  // the closest point per beam: the only data-dependent branch.
+  Chunk c;
   float* const best = best_r2_.data();
   std::uint32_t* const best_index = best_index_.data();
-  const std::uint8_t* const base = v.data;
-  const std::uint32_t xo = v.x_offset, yo = v.y_offset, zo = v.z_offset, step = v.point_step;
+  const std::size_t col_step = static_cast<std::size_t>(v.point_step) * f.column_stride;
+  const float inf = std::numeric_limits<float>::infinity();
+  const Kernel kernel = pickKernel<T, kHole>(col_step);
 
   for (std::uint32_t r = 0; r < v.height; r += f.row_stride)
   {
-    const std::uint8_t* const row = base + static_cast<std::size_t>(r) * v.row_step;
-    for (std::uint32_t c = 0; c < v.width; c += f.column_stride)
+    const std::uint8_t* const row = v.data + static_cast<std::size_t>(r) * v.row_step;
+    for (std::uint32_t c0 = 0; c0 < v.width; c0 += kChunk * f.column_stride)
     {
-      const std::uint8_t* const p = row + static_cast<std::size_t>(c) * step;
-      const float x = load<T>(p + xo);
-      const float y = load<T>(p + yo);
-      const float z = load<T>(p + zo);
-      // Height first: most floor and ceiling points leave after three multiply-adds.
-      float zr = f.r20 * x + f.r21 * y + f.r22 * z + f.t2;
-      float xr, yr;
-      if (!(zr >= f.z_lo && zr <= f.z_hi))  // NaN fails too
+      const std::uint32_t n = std::min(kChunk, (v.width - c0 + f.column_stride - 1) / f.column_stride);
+      kernel(row + static_cast<std::size_t>(c0) * v.point_step, col_step, v.x_offset, v.y_offset,
+             v.z_offset, n, f, c);
+      for (std::uint32_t i = 0; i < n; ++i)
       {
-        if (!kHole || !(zr < f.z_hole && zr > -FLT_MAX))
-          continue;
-        // A hole: move the obstacle to where the camera ray meets the floor. The camera is above
-        // the floor (checked per cloud) and the point below it, so 0 < t < 1.
-        const float px = f.r00 * x + f.r01 * y + f.r02 * z + f.t0;
-        const float py = f.r10 * x + f.r11 * y + f.r12 * z + f.t1;
-        const float t = (f.floor_z - f.t2) / (zr - f.t2);
-        xr = f.t0 + t * (px - f.t0);
-        yr = f.t1 + t * (py - f.t1);
-        zr = f.floor_z;
-      }
-      else
-      {
-        xr = f.r00 * x + f.r01 * y + f.r02 * z + f.t0;
-        yr = f.r10 * x + f.r11 * y + f.r12 * z + f.t1;
-      }
-      // Squared ranges: the square root is taken once per beam at the end.
-      const float r2 = xr * xr + yr * yr;
-      if (!(r2 >= f.r2_min && r2 <= f.r2_max))
-        continue;
-      const float a = fastAtan2(yr, xr);
-      if (!(a >= f.a_lo && a <= f.a_hi))
-        continue;
-      int b = static_cast<int>((a - f.a_min) * f.inv_inc + 0.5f);
-      b = b < 0 ? 0 : (b >= f.beams ? f.beams - 1 : b);  // bounds check, also for a == angle_max
-      if (r2 < best[b])
-      {
-        best[b] = r2;
-        if (kIndex)
-          best_index[b] = r * v.width + c;
-      }
-      if (kKeep)
-      {
-        kept->push_back(xr);
-        kept->push_back(yr);
-        kept->push_back(zr);
+        const std::int32_t b = c.bins[i];
+        if (c.r2s[i] < best[b])
+        {
+          best[b] = c.r2s[i];
+          if (kIndex)
+            best_index[b] = r * v.width + c0 + i * f.column_stride;
+        }
+        if (kKeep && c.r2s[i] < inf)
+        {
+          kept->push_back(c.xs[i]);
+          kept->push_back(c.ys[i]);
+          kept->push_back(c.zs[i]);
+        }
       }
     }
   }

@@ -13,158 +13,14 @@
 #include "depth_filter_scan_converter/fast_atan2.h"
 #include "depth_filter_scan_converter/parameters.h"
 #include "depth_filter_scan_converter/projector.h"
+#include "cloud_fixtures.h"
 #include "pcd_reader.h"
 
 namespace dfsc = depth_filter_scan_converter;
-using Eigen::Vector3d;
-using Points = std::vector<Vector3d>;
 
 namespace
 {
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-const double kDeg = M_PI / 180.0;
-
-// Camera optical frame (z forward, x right, y down) at `height` above the reference origin,
-// pitched down by `pitch_down`, rolled by `roll` (about the viewing direction), turned by `yaw`.
-Eigen::Isometry3d cameraMount(double height, double pitch_down, double roll = 0.0, double yaw = 0.0,
-                              double x = 0.0, double y = 0.0)
-{
-  Eigen::Matrix3d optical_to_body;
-  optical_to_body << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = (Eigen::AngleAxisd(yaw, Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch_down, Vector3d::UnitY()) *
-                Eigen::AngleAxisd(roll, Vector3d::UnitX()))
-                   .toRotationMatrix() *
-               optical_to_body;
-  t.translation() = Vector3d(x, y, height);
-  return t;
-}
-
-// A cloud laid out like a PointCloud2: x, y, z of type T at x_offset, then a float32 intensity.
-struct TestCloud
-{
-  dfsc::CloudLayout layout;
-  std::vector<std::uint8_t> data;
-
-  dfsc::CloudView view(const std::string& intensity_field = "") const
-  {
-    dfsc::CloudView v;
-    const std::string reason = dfsc::makeCloudView(layout, data.data(), data.size(), intensity_field, v);
-    EXPECT_EQ(reason, "");
-    return v;
-  }
-};
-
-template <typename T>
-TestCloud makeCloud(const Points& pts, std::uint32_t width, std::uint32_t height, std::uint32_t x_offset = 0,
-                    std::uint32_t extra_step = 0, std::uint32_t row_padding = 0, std::vector<float> intensity = {})
-{
-  EXPECT_EQ(pts.size(), static_cast<std::size_t>(width) * height);
-  const std::uint8_t type = sizeof(T) == 4 ? 7 : 8;
-  TestCloud c;
-  c.layout.width = width;
-  c.layout.height = height;
-  const std::uint32_t i_off = x_offset + 3 * sizeof(T);
-  c.layout.point_step = i_off + 4 + extra_step;
-  c.layout.row_step = width * c.layout.point_step + row_padding;
-  c.layout.fields = { { "x", x_offset, type, 1 },
-                      { "y", static_cast<std::uint32_t>(x_offset + sizeof(T)), type, 1 },
-                      { "z", static_cast<std::uint32_t>(x_offset + 2 * sizeof(T)), type, 1 },
-                      { "intensity", i_off, 7, 1 } };
-  c.data.assign(static_cast<std::size_t>(c.layout.row_step) * height, 0xAB);
-  for (std::uint32_t r = 0; r < height; ++r)
-    for (std::uint32_t col = 0; col < width; ++col)
-    {
-      const std::size_t i = static_cast<std::size_t>(r) * width + col;
-      std::uint8_t* p = &c.data[static_cast<std::size_t>(r) * c.layout.row_step + col * c.layout.point_step];
-      const T xyz[3] = { static_cast<T>(pts[i].x()), static_cast<T>(pts[i].y()), static_cast<T>(pts[i].z()) };
-      std::memcpy(p + x_offset, xyz, sizeof xyz);
-      const float in = intensity.empty() ? static_cast<float>(i) : intensity[i];
-      std::memcpy(p + i_off, &in, sizeof in);
-    }
-  return c;
-}
-
-TestCloud makeCloud(const Points& pts)
-{
-  return makeCloud<float>(pts, static_cast<std::uint32_t>(pts.size()), 1);
-}
-
-// Points given in the reference frame, expressed in the camera frame.
-Points toCamera(const Points& ref_points, const Eigen::Isometry3d& camera_to_reference)
-{
-  Points out;
-  for (const auto& p : ref_points)
-    out.push_back(camera_to_reference.inverse() * p);
-  return out;
-}
-
-// Ray-cast scene in the reference frame: floor z = 0, optional wall x = wall_x, boxes.
-struct Box
-{
-  Vector3d lo, hi;
-};
-struct Scene
-{
-  bool floor = true;
-  double wall_x = kInf;
-  std::vector<Box> boxes;
-
-  double hit(const Vector3d& o, const Vector3d& d) const
-  {
-    double best = kInf;
-    if (floor && d.z() < -1e-12)
-    {
-      const double t = -o.z() / d.z();
-      if (t > 0)
-        best = std::min(best, t);
-    }
-    if (std::isfinite(wall_x) && d.x() > 1e-12)
-    {
-      const double t = (wall_x - o.x()) / d.x();
-      if (t > 0)
-        best = std::min(best, t);
-    }
-    for (const auto& b : boxes)
-    {
-      double t0 = 0, t1 = kInf;
-      for (int k = 0; k < 3; ++k)
-      {
-        if (std::fabs(d[k]) < 1e-12)
-        {
-          if (o[k] < b.lo[k] || o[k] > b.hi[k])
-            t0 = kInf;
-          continue;
-        }
-        double a = (b.lo[k] - o[k]) / d[k], c = (b.hi[k] - o[k]) / d[k];
-        if (a > c)
-          std::swap(a, c);
-        t0 = std::max(t0, a);
-        t1 = std::min(t1, c);
-      }
-      if (t0 <= t1 && t0 > 0)
-        best = std::min(best, t0);
-    }
-    return best;
-  }
-};
-
-// Organized cloud (camera frame) of a pinhole camera with the given horizontal field of view.
-Points render(const Scene& scene, const Eigen::Isometry3d& cam, int width, int height, double hfov = 60 * kDeg)
-{
-  const double f = (width / 2.0) / std::tan(hfov / 2.0);
-  Points out;
-  for (int v = 0; v < height; ++v)
-    for (int u = 0; u < width; ++u)
-    {
-      const Vector3d d_cam((u - (width - 1) / 2.0) / f, (v - (height - 1) / 2.0) / f, 1.0);
-      const Vector3d d = cam.linear() * d_cam;
-      const double t = scene.hit(cam.translation(), d);
-      out.push_back(std::isfinite(t) ? Vector3d(t * d_cam) : Vector3d(kNaN, kNaN, kNaN));
-    }
-  return out;
-}
+using namespace depth_filter_scan_converter::test;  // NOLINT: fixtures of this test
 
 std::size_t countFinite(const std::vector<float>& r)
 {
@@ -541,6 +397,13 @@ TEST(Projector, OddPointStepAndRowPadding)
   const TestCloud odd = makeCloud<float>(pts, 40, 30, 3, 6, 7);
   EXPECT_EQ(odd.layout.point_step, 25u);
   EXPECT_EQ(project(p, odd, cam), plain);
+  // 32-byte points take a kernel of their own (fixed step); 16 bytes is the plain layout.
+  const TestCloud wide = makeCloud<float>(pts, 40, 30, 0, 16);
+  EXPECT_EQ(wide.layout.point_step, 32u);
+  EXPECT_EQ(project(p, wide, cam), plain);
+  const TestCloud wide_offset = makeCloud<float>(pts, 40, 30, 8, 8);
+  EXPECT_EQ(wide_offset.layout.point_step, 32u);
+  EXPECT_EQ(project(p, wide_offset, cam), plain);
   const TestCloud odd64 = makeCloud<double>(pts, 40, 30, 5, 1, 3);
   EXPECT_EQ(countDisagreements(project(p, odd64, cam), plain, 1e-5), 0u);
   EXPECT_GT(countFinite(plain), 50u);

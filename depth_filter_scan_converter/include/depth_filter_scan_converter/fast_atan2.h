@@ -2,6 +2,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
 
 namespace depth_filter_scan_converter
@@ -20,8 +21,9 @@ inline float fastAtan2(float y, float x)
   const float ay = std::fabs(y);
   const float mx = std::max(ax, ay);
   const float mn = std::min(ax, ay);
-  // mx == 0 only for the origin; std::atan2(0, 0) is 0 as well.
-  const float a = mx > 0.0f ? mn / mx : 0.0f;
+  // mx == 0 only at the origin: 0 / FLT_MIN = 0, as std::atan2(0, 0). No branch around the
+  // division, so that loops calling this vectorize.
+  const float a = mn / std::max(mx, FLT_MIN);
   const float s = a * a;
   float r = 0.9999772310256958f +
             s * (-0.33262282609939575f +

@@ -44,8 +44,10 @@ public:
   void project(const CloudView& cloud, const Eigen::Isometry3d& camera_to_reference, std::vector<float>& ranges,
                std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr);
 
-private:
+  /// Per-cloud constants of the inner loop (defined in projector.cpp).
   struct Frame;
+
+private:
   template <typename T, bool kHole, bool kIndex, bool kKeep>
   void run(const CloudView& cloud, const Frame& frame, std::vector<float>* kept_points);
   template <typename T, bool kHole>

@@ -1,0 +1,180 @@
+// Speed of the core against the straightforward per-point converter, measured in the same run.
+//   cmake --build <build> --target depth_filter_scan_converter_benchmark
+//   <build>/devel/lib/depth_filter_scan_converter/depth_filter_scan_converter_benchmark
+// Ends with one line per cloud: core time, reference time and the ratio.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <string>
+
+#include "../test/cloud_fixtures.h"
+#include "../test/pcd_reader.h"
+#include "depth_filter_scan_converter/projector.h"
+
+namespace dfsc = depth_filter_scan_converter;
+using namespace dfsc::test;  // NOLINT: fixtures of the benchmark
+
+namespace
+{
+struct Input
+{
+  TestCloud cloud;
+  dfsc::CloudView view;
+  Eigen::Isometry3d camera_to_reference;
+  std::size_t valid_points = 0;
+};
+
+// 320 x 163 organized cloud: camera 0.6 m high, pitched down 20 degrees, looking at the floor,
+// a wall 3.5 m ahead, a table, a cabinet and a chair-sized box.
+const Input& synthetic()
+{
+  static const Input input = [] {
+    Input in;
+    Scene scene;
+    scene.wall_x = 3.5;
+    scene.boxes.push_back({ Vector3d(1.2, -0.9, 0.70), Vector3d(2.0, 0.1, 0.75) });   // table top
+    scene.boxes.push_back({ Vector3d(2.6, 0.4, 0.0), Vector3d(3.0, 1.4, 1.8) });      // cabinet
+    scene.boxes.push_back({ Vector3d(1.0, 0.5, 0.0), Vector3d(1.45, 0.95, 0.45) });   // chair
+    in.camera_to_reference = cameraMount(0.6, 20 * kDeg);
+    const Points pts = render(scene, in.camera_to_reference, 320, 163, 87 * kDeg);
+    in.cloud = makeCloud<float>(pts, 320, 163, 0, 16);  // 32-byte points: x, y, z, intensity, 16 bytes of other fields
+    in.view = in.cloud.view();
+    for (const auto& p : pts)
+      in.valid_points += std::isfinite(p.x()) ? 1 : 0;
+    return in;
+  }();
+  return input;
+}
+
+// five_people.pcd, 640 x 480, used as stored, at the camera pose fitted from its floor.
+const Input* fivePeople()
+{
+  static const Input* input = []() -> Input* {
+    const char* env = std::getenv("DFSC_DATA_DIR");
+    const std::string dir = env ? env : DFSC_DATA_DIR;
+    try
+    {
+      PcdCloud pcd = readPcd(dir + "/five_people.pcd");
+      auto* in = new Input;
+      in->cloud.layout = pcd.layout;
+      in->cloud.data = std::move(pcd.data);
+      in->view = in->cloud.view();
+      in->camera_to_reference = fivePeopleMeasuredMount();
+      for (std::size_t i = 0; i < in->view.size(); ++i)
+      {
+        float z;
+        std::memcpy(&z, in->cloud.data.data() + i * in->view.point_step + in->view.z_offset, sizeof z);
+        in->valid_points += std::isfinite(z) ? 1 : 0;
+      }
+      return in;
+    }
+    catch (const std::exception& e)
+    {
+      std::fprintf(stderr, "five_people.pcd not available (%s): skipping those benchmarks\n", e.what());
+      return nullptr;
+    }
+  }();
+  return input;
+}
+
+void runCore(benchmark::State& state, const Input* in)
+{
+  if (!in)
+  {
+    state.SkipWithError("input not available");
+    return;
+  }
+  dfsc::Projector projector{ dfsc::Parameters() };
+  std::vector<float> ranges;
+  for (auto _ : state)
+  {
+    projector.project(in->view, in->camera_to_reference, ranges);
+    benchmark::DoNotOptimize(ranges.data());
+  }
+  state.counters["points"] = static_cast<double>(in->view.size());
+  state.counters["points/s"] = benchmark::Counter(static_cast<double>(in->view.size()), benchmark::Counter::kIsIterationInvariantRate);
+}
+
+void runReference(benchmark::State& state, const Input* in)
+{
+  if (!in)
+  {
+    state.SkipWithError("input not available");
+    return;
+  }
+  const dfsc::Parameters params;
+  std::vector<float> ranges;
+  for (auto _ : state)
+  {
+    dfsc::referenceProject(params, in->view, in->camera_to_reference, ranges);
+    benchmark::DoNotOptimize(ranges.data());
+  }
+  state.counters["points"] = static_cast<double>(in->view.size());
+  state.counters["points/s"] = benchmark::Counter(static_cast<double>(in->view.size()), benchmark::Counter::kIsIterationInvariantRate);
+}
+
+void BM_Core_Synthetic320x163(benchmark::State& s) { runCore(s, &synthetic()); }
+void BM_Reference_Synthetic320x163(benchmark::State& s) { runReference(s, &synthetic()); }
+void BM_Core_FivePeople640x480(benchmark::State& s) { runCore(s, fivePeople()); }
+void BM_Reference_FivePeople640x480(benchmark::State& s) { runReference(s, fivePeople()); }
+
+BENCHMARK(BM_Core_Synthetic320x163)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK(BM_Reference_Synthetic320x163)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK(BM_Core_FivePeople640x480)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK(BM_Reference_FivePeople640x480)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+
+// Console output as usual; the CPU time per iteration of every run is kept for the ratio lines
+// (CPU time, because the machine may be shared; with --benchmark_repetitions the median is used).
+class RatioReporter : public benchmark::ConsoleReporter
+{
+public:
+  void ReportRuns(const std::vector<Run>& runs) override
+  {
+    ConsoleReporter::ReportRuns(runs);
+    for (const auto& r : runs)
+      if (!r.error_occurred && r.iterations > 0 && r.run_type == Run::RT_Iteration)
+        ms_[r.run_name.function_name].push_back(r.cpu_accumulated_time * 1e3 / static_cast<double>(r.iterations));
+  }
+  void printRatios()
+  {
+    std::printf("\n%-20s %10s %15s %8s   (CPU time per cloud, median of repetitions)\n", "cloud", "core [ms]",
+                "reference [ms]", "ratio");
+    for (const char* cloud : { "Synthetic320x163", "FivePeople640x480" })
+    {
+      const double core = median(std::string("BM_Core_") + cloud);
+      const double ref = median(std::string("BM_Reference_") + cloud);
+      if (core > 0 && ref > 0)
+        std::printf("%-20s %10.4f %15.4f %7.1fx\n", cloud, core, ref, ref / core);
+    }
+  }
+
+private:
+  double median(const std::string& name)
+  {
+    auto it = ms_.find(name);
+    if (it == ms_.end() || it->second.empty())
+      return 0.0;
+    std::vector<double>& v = it->second;
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  }
+  std::map<std::string, std::vector<double>> ms_;
+};
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  benchmark::Initialize(&argc, argv);
+  synthetic();
+  if (const Input* fp = fivePeople())
+    std::printf("five_people.pcd: %zu points, %zu valid\n", fp->view.size(), fp->valid_points);
+  std::printf("synthetic: %zu points, %zu valid\n", synthetic().view.size(), synthetic().valid_points);
+  RatioReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  reporter.printRatios();
+  benchmark::Shutdown();
+  return 0;
+}
