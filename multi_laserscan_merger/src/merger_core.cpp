@@ -239,19 +239,10 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     const bool with_intensity = any_intensity && scan.n_intensities == n;
     if (compensate && params_.sources[s].deskew && scan.time_increment != 0.0 && n > 1)
     {
-      // Beam i was measured at stamp + i * time_increment. The robot motion of the first
-      // and the last beam come from the odometry (two look-ups per scan) and are
-      // interpolated (lerp + nlerp on the short arc; within one scan the rotation is
-      // small, so nlerp is slerp to 1e-5 rad) at the borders of every kDeskewGroup beams.
-      // Between two borders the planar transform is interpolated per beam, whose error is
-      // second order in the tiny rotation of one group.
-      const double t_last = scan.stamp + static_cast<double>(n - 1) * scan.time_increment;
-      const Eigen::Isometry3d d0 = motion_to(scan.stamp);
-      const Eigen::Isometry3d d1 = motion_to(t_last);
-      const Eigen::Quaterniond q0(d0.linear());
-      Eigen::Quaterniond q1(d1.linear());
-      if (q0.coeffs().dot(q1.coeffs()) < 0.0)
-        q1.coeffs() = -q1.coeffs();
+      // Beam i was measured at stamp + i * time_increment. The exact transform (robot
+      // motion from the odometry) is computed at the borders of every kDeskewGroup beams;
+      // between two borders the planar transform is interpolated per beam, whose error is
+      // second order in the small rotation of one group.
       const Eigen::Isometry3d right = robot_T_output * in.output_T_sensor;
       const std::size_t groups = (n - 1 + kDeskewGroup - 1) / kDeskewGroup;
       if (group_transforms_.size() < groups + 1)
@@ -259,14 +250,8 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
       for (std::size_t g = 0; g <= groups; ++g)
       {
         const std::size_t b = std::min(g * kDeskewGroup, n - 1);
-        const double u = static_cast<double>(b) / static_cast<double>(n - 1);
-        Eigen::Quaterniond q;
-        q.coeffs() = (1.0 - u) * q0.coeffs() + u * q1.coeffs();
-        q.normalize();
-        Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
-        d.linear() = q.toRotationMatrix();
-        d.translation() = (1.0 - u) * d0.translation() + u * d1.translation();
-        group_transforms_[g] = planarPart(output_T_robot * d * right);
+        const double t = scan.stamp + static_cast<double>(b) * scan.time_increment;
+        group_transforms_[g] = planarPart(output_T_robot * motion_to(t) * right);
       }
       addScan<true>(s, in, group_transforms_.data(), kDeskewGroup, with_intensity);
     }

@@ -45,7 +45,8 @@ Eigen::Quaterniond slerpShortest(const Eigen::Quaterniond& a, const Eigen::Quate
   return q;
 }
 
-OdometryBuffer::OdometryBuffer(std::size_t capacity) : capacity_(std::max<std::size_t>(capacity, 1))
+OdometryBuffer::OdometryBuffer(std::size_t capacity, double jump_back_threshold)
+  : capacity_(std::max<std::size_t>(capacity, 1)), jump_back_threshold_(jump_back_threshold)
 {
 }
 
@@ -59,6 +60,8 @@ OdometryBuffer::AddResult OdometryBuffer::add(double t, const Eigen::Vector3d& p
   AddResult result = AddResult::kAdded;
   if (!entries_.empty())
   {
+    if (t < entries_.back().t && t > entries_.back().t - jump_back_threshold_)
+      return AddResult::kOutOfOrder;
     if (t < entries_.back().t)
     {
       // A bag played in a loop or a restarted clock: old poses would be

@@ -482,6 +482,10 @@ TEST(Odometry, ClampingQueueSizeAndTimeBackwards)
   EXPECT_NEAR(p.position.x(), 3.5, 1e-12);
   EXPECT_NEAR(yawOf(p.orientation), 0.35, 1e-9);
 
+  // A small step back is a late message: ignored. A big one is a jump back: cleared.
+  EXPECT_EQ(b.add(3.5, Eigen::Vector3d(9, 0, 0), yawQ(0)), OdometryBuffer::AddResult::kOutOfOrder);
+  EXPECT_EQ(b.size(), 3u);
+  EXPECT_EQ(b.newestTime(), 4.0);
   EXPECT_EQ(b.add(1.0, Eigen::Vector3d(9, 0, 0), yawQ(0)), OdometryBuffer::AddResult::kClearedBackwards);
   EXPECT_EQ(b.size(), 1u);
   EXPECT_EQ(b.oldestTime(), 1.0);

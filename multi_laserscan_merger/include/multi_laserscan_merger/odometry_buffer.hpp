@@ -29,11 +29,16 @@ public:
   enum class AddResult
   {
     kAdded,              ///< appended (or replaced an entry with the same time)
-    kClearedBackwards,   ///< time went backwards: the buffer was cleared, then this entry kept
+    kOutOfOrder,         ///< older than the newest entry by less than the jump threshold: ignored
+    kClearedBackwards,   ///< older by the jump threshold or more (time jumped back, e.g. a bag
+                         ///< played in a loop): the buffer was cleared, then this entry kept
     kRejected            ///< non-finite time/position or degenerate quaternion: ignored
   };
 
-  explicit OdometryBuffer(std::size_t capacity = 100);
+  /// capacity: entries kept (oldest dropped first). jump_back_threshold (s): a message
+  /// older than the newest by at least this much means time jumped back; a smaller step
+  /// back is a message delivered out of order and is ignored.
+  explicit OdometryBuffer(std::size_t capacity = 100, double jump_back_threshold = 1.0);
 
   /// Adds the pose of the robot at time t (s). Orientation is normalised here.
   AddResult add(double t, const Eigen::Vector3d& position, const Eigen::Quaterniond& orientation);
@@ -60,6 +65,7 @@ private:
     Pose pose;
   };
   std::size_t capacity_;
+  double jump_back_threshold_;
   std::deque<Entry> entries_;
 };
 
