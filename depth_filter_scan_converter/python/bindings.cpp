@@ -32,10 +32,13 @@ dfsc::CloudView viewOf(const py::array& a, int intensity_channel)
   const py::ssize_t channels = a.shape(a.ndim() - 1);
   if (channels < 3 || intensity_channel >= channels)
     throw py::value_error("points need at least 3 channels (and the intensity channel)");
+  dfsc::CloudView v;
+  v.xyz_type = type;
+  if (a.size() == 0)
+    return v;  // an empty cloud: width = height = 0
   for (py::ssize_t i = 0; i < a.ndim(); ++i)
     if (a.strides(i) <= 0)
       throw py::value_error("points must have positive strides");
-  dfsc::CloudView v;
   v.data = static_cast<const std::uint8_t*>(a.data());
   const auto cs = static_cast<std::uint32_t>(a.strides(a.ndim() - 1));
   v.point_step = static_cast<std::uint32_t>(a.strides(a.ndim() - 2));

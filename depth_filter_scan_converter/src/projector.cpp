@@ -135,9 +135,10 @@ __attribute__((always_inline)) inline void chunkKernel(const std::uint8_t* p, st
     bool ok = (zr >= f.z_lo) & (zr <= f.z_hi);  // false for NaN; bounds are finite, so also for Inf
     if (kHole)
     {
-      // A hole: the obstacle is where the camera ray meets the floor. The camera is above the
-      // floor (checked per cloud) and the point below it, so 0 < t < 1.
-      const bool hole = (zr < f.z_hole) & (zr > -FLT_MAX);
+      // A hole (only if the point is not an obstacle itself, which a band reaching below the
+      // floor allows): the obstacle is where the camera ray meets the floor. The camera is above
+      // the floor (checked per cloud) and the point below it, so 0 < t < 1.
+      const bool hole = (zr < f.z_hole) & (zr > -FLT_MAX) & !ok;
       const float t = (f.floor_z - f.t2) / (zr - f.t2);
       xr = hole ? f.t0 + t * (xr - f.t0) : xr;
       yr = hole ? f.t1 + t * (yr - f.t1) : yr;
