@@ -1,0 +1,353 @@
+#include "depth_filter_scan_converter/depth_filter_scan_converter.h"
+
+#include <sensor_msgs/LaserScan.h>
+#include <tf2_eigen/tf2_eigen.h>
+
+#include <boost/make_shared.hpp>
+#include <cstring>
+#include <stdexcept>
+
+#include "depth_filter_scan_converter/cloud_view.h"
+
+namespace depth_filter_scan_converter
+{
+namespace
+{
+// Reads `name` if set; a value of the wrong type is an error, not a silent default.
+template <typename T>
+void readParam(const ros::NodeHandle& nh, const std::string& name, T& value, const char* type)
+{
+  if (!nh.hasParam(name))
+    return;
+  if (!nh.getParam(name, value))
+    throw std::invalid_argument("parameter '" + name + "' must be of type " + type);
+}
+
+const char* failureText(tf2_ros::filter_failure_reasons::FilterFailureReason reason)
+{
+  switch (reason)
+  {
+    case tf2_ros::filter_failure_reasons::OutTheBack:
+      return "the transform is older than the tf buffer (OutTheBack)";
+    case tf2_ros::filter_failure_reasons::EmptyFrameID:
+      return "the cloud has an empty frame_id";
+    default:
+      return "no transform arrived before newer clouds pushed it out of the queue";
+  }
+}
+}  // namespace
+
+Parameters loadParameters(const ros::NodeHandle& pnh)
+{
+  Parameters p;
+  readParam(pnh, "reference_frame", p.reference_frame, "string");
+  readParam(pnh, "floor_height", p.floor_height, "double");
+  readParam(pnh, "min_height", p.min_height, "double");
+  readParam(pnh, "max_height", p.max_height, "double");
+  readParam(pnh, "angle_min", p.angle_min, "double");
+  readParam(pnh, "angle_max", p.angle_max, "double");
+  readParam(pnh, "angle_increment", p.angle_increment, "double");
+  readParam(pnh, "range_min", p.range_min, "double");
+  readParam(pnh, "range_max", p.range_max, "double");
+  readParam(pnh, "hole_detection", p.hole_detection, "bool");
+  readParam(pnh, "hole_depth", p.hole_depth, "double");
+  readParam(pnh, "transform_tolerance", p.transform_tolerance, "double");
+  readParam(pnh, "row_stride", p.row_stride, "int");
+  readParam(pnh, "column_stride", p.column_stride, "int");
+  readParam(pnh, "use_inf", p.use_inf, "bool");
+  readParam(pnh, "inf_epsilon", p.inf_epsilon, "double");
+  readParam(pnh, "intensity_field", p.intensity_field, "string");
+  readParam(pnh, "publish_filtered_cloud", p.publish_filtered_cloud, "bool");
+  readParam(pnh, "tf_buffer_duration", p.tf_buffer_duration, "double");
+  p.validate();
+  return p;
+}
+
+DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh)
+  : nh_(nh)
+  , private_nh_(private_nh)
+  , params_(loadParameters(private_nh))
+  , tf_buffer_(ros::Duration(params_.tf_buffer_duration))
+  , tf_listener_(tf_buffer_)
+  , projector_(params_)
+  , updater_(nh, private_nh, private_nh.getNamespace())
+{
+  readParam(private_nh_, "queue_size", queue_size_, "int");
+  if (queue_size_ < 1)
+    throw std::invalid_argument("parameter 'queue_size' must be >= 1");
+
+  // Clouds wait in the tf filter (never in a callback) until their transform is there. The
+  // filter delivers through nh's callback queue, so processing runs in the node's own threads.
+  tf_filter_ = std::make_unique<tf2_ros::MessageFilter<Cloud>>(tf_buffer_, params_.reference_frame,
+                                                               static_cast<std::uint32_t>(queue_size_), nh_);
+  tf_filter_->registerCallback([this](const Cloud::ConstPtr& cloud) { process(cloud); });
+  tf_filter_->registerFailureCallback(
+      [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+        transformFailed(cloud, reason);
+      });
+  cloud_sub_.registerCallback([this](const Cloud::ConstPtr& cloud) { cloudArrived(cloud); });
+
+  reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<Config>>(private_nh_);
+  reconfigure_server_->setCallback([this](Config& config, std::uint32_t level) { reconfigure(config, level); });
+
+  updater_.setHardwareID("depth_filter_scan_converter");
+  updater_.add("Input and processing", this, &DepthFilterScanConverter::diagnose);
+  last_report_ = ros::WallTime::now();
+  diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { updater_.update(); });
+
+  // Lazy: subscribe to the cloud only while someone listens to an output.
+  std::lock_guard<std::mutex> lock(connect_mutex_);
+  const ros::SubscriberStatusCallback connect = [this](const ros::SingleSubscriberPublisher&) { connectCallback(); };
+  scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 10, connect, connect);
+  if (params_.publish_filtered_cloud)
+    cloud_pub_ = nh_.advertise<Cloud>("filtered_cloud", 2, connect, connect);
+}
+
+DepthFilterScanConverter::~DepthFilterScanConverter()
+{
+  // Stop the input first: no callback may reach a half-destroyed object.
+  std::lock_guard<std::mutex> lock(connect_mutex_);
+  cloud_sub_.unsubscribe();
+  diagnostics_timer_.stop();
+}
+
+void DepthFilterScanConverter::connectCallback()
+{
+  std::lock_guard<std::mutex> lock(connect_mutex_);
+  const bool listeners = scan_pub_.getNumSubscribers() > 0 || (cloud_pub_ && cloud_pub_.getNumSubscribers() > 0);
+  if (listeners && !subscribed_)
+  {
+    cloud_sub_.subscribe(nh_, "cloud_in", static_cast<std::uint32_t>(queue_size_));
+    subscribed_ = true;
+  }
+  else if (!listeners && subscribed_)
+  {
+    cloud_sub_.unsubscribe();
+    subscribed_ = false;
+  }
+}
+
+void DepthFilterScanConverter::cloudArrived(const Cloud::ConstPtr& cloud)
+{
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++received_;
+    arrivals_.emplace_back(cloud.get(), ros::Time::now());
+    // Clouds leave the filter's queue (processed or dropped) in arrival order at the latest
+    // after queue_size newer ones: older records are of no use.
+    while (arrivals_.size() > static_cast<std::size_t>(2 * queue_size_))
+      arrivals_.pop_front();
+  }
+  tf_filter_->add(cloud);
+}
+
+bool DepthFilterScanConverter::takeArrival(const Cloud* cloud, ros::Time& arrival)
+{
+  for (auto it = arrivals_.begin(); it != arrivals_.end(); ++it)
+    if (it->first == cloud)
+    {
+      arrival = it->second;
+      arrivals_.erase(it);
+      return true;
+    }
+  return false;
+}
+
+void DepthFilterScanConverter::transformFailed(const Cloud::ConstPtr& cloud,
+                                               tf2_ros::filter_failure_reasons::FilterFailureReason reason)
+{
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++tf_failures_;
+    ros::Time arrival;
+    takeArrival(cloud.get(), arrival);
+  }
+  ROS_WARN_THROTTLE(5.0, "[%s] dropped a cloud: no transform %s -> %s at %.3f: %s", private_nh_.getNamespace().c_str(),
+                    cloud->header.frame_id.c_str(), params_.reference_frame.c_str(), cloud->header.stamp.toSec(),
+                    failureText(reason));
+}
+
+void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
+{
+  const auto start = std::chrono::steady_clock::now();
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string& name = private_nh_.getNamespace();
+
+  // "How long a cloud may wait for its transform": a late scan is worse than none for a planner.
+  ros::Time arrival;
+  if (takeArrival(cloud.get(), arrival))
+  {
+    const double waited = (ros::Time::now() - arrival).toSec();
+    if (waited > params_.transform_tolerance)
+    {
+      ++stale_;
+      ROS_WARN_THROTTLE(5.0, "[%s] dropped a cloud that waited %.3f s for its transform %s -> %s (transform_tolerance %.3f s)",
+                        name.c_str(), waited, cloud->header.frame_id.c_str(), params_.reference_frame.c_str(),
+                        params_.transform_tolerance);
+      return;
+    }
+  }
+
+  CloudLayout layout;
+  layout.width = cloud->width;
+  layout.height = cloud->height;
+  layout.point_step = cloud->point_step;
+  layout.row_step = cloud->row_step;
+  layout.is_bigendian = cloud->is_bigendian;
+  for (const auto& f : cloud->fields)
+    layout.fields.push_back({ f.name, f.offset, f.datatype, f.count });
+  CloudView view;
+  std::string intensity_note;
+  const std::string reason =
+      makeCloudView(layout, cloud->data.data(), cloud->data.size(), params_.intensity_field, view, &intensity_note);
+  if (!reason.empty())
+  {
+    ++malformed_;
+    // A new kind of defect is reported at once, the same one again at most every 5 s.
+    if (reason != last_malformed_reason_)
+      ROS_WARN("[%s] dropped a malformed cloud (frame '%s'): %s", name.c_str(), cloud->header.frame_id.c_str(),
+               reason.c_str());
+    else
+      ROS_WARN_THROTTLE(5.0, "[%s] dropped a malformed cloud (frame '%s'): %s", name.c_str(),
+                        cloud->header.frame_id.c_str(), reason.c_str());
+    last_malformed_reason_ = reason;
+    return;
+  }
+  if (!intensity_note.empty())
+    ROS_WARN_THROTTLE(30.0, "[%s] %s: the scan has no intensities", name.c_str(), intensity_note.c_str());
+
+  Eigen::Isometry3d camera_to_reference;
+  try
+  {
+    camera_to_reference = tf2::transformToEigen(
+        tf_buffer_.lookupTransform(params_.reference_frame, cloud->header.frame_id, cloud->header.stamp));
+  }
+  catch (const tf2::TransformException& e)
+  {
+    ++tf_failures_;
+    ROS_WARN_THROTTLE(5.0, "[%s] dropped a cloud: %s", name.c_str(), e.what());
+    return;
+  }
+
+  auto scan = boost::make_shared<sensor_msgs::LaserScan>();
+  scan->header.stamp = cloud->header.stamp;
+  scan->header.frame_id = params_.reference_frame;
+  scan->angle_min = static_cast<float>(params_.angle_min);
+  scan->angle_max = static_cast<float>(params_.angle_max);
+  scan->angle_increment = static_cast<float>(params_.angle_increment);
+  scan->time_increment = 0.0f;  // a depth image is taken at once
+  scan->scan_time = 0.0f;
+  scan->range_min = static_cast<float>(params_.range_min);
+  scan->range_max = static_cast<float>(params_.range_max);
+  const bool want_cloud = params_.publish_filtered_cloud && cloud_pub_ && cloud_pub_.getNumSubscribers() > 0;
+  projector_.project(view, camera_to_reference, scan->ranges, &scan->intensities, want_cloud ? &kept_points_ : nullptr);
+  scan_pub_.publish(scan);  // not touched after this: shared zero-copy with nodelets in the manager
+
+  if (want_cloud)
+  {
+    auto out = boost::make_shared<Cloud>();
+    out->header = scan->header;
+    out->height = 1;
+    out->width = static_cast<std::uint32_t>(kept_points_.size() / 3);
+    out->is_bigendian = false;
+    out->is_dense = true;
+    out->point_step = 12;
+    out->row_step = out->point_step * out->width;
+    const char* names[3] = { "x", "y", "z" };
+    for (std::uint32_t i = 0; i < 3; ++i)
+    {
+      sensor_msgs::PointField f;
+      f.name = names[i];
+      f.offset = 4 * i;
+      f.datatype = sensor_msgs::PointField::FLOAT32;
+      f.count = 1;
+      out->fields.push_back(f);
+    }
+    out->data.resize(kept_points_.size() * sizeof(float));
+    if (!kept_points_.empty())
+      std::memcpy(out->data.data(), kept_points_.data(), out->data.size());
+    cloud_pub_.publish(out);
+  }
+
+  ++published_;
+  last_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  max_ms_ = std::max(max_ms_, last_ms_);
+  sum_ms_ += last_ms_;
+}
+
+void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level*/)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto write = [&config](const Parameters& p) {
+    config.floor_height = p.floor_height;
+    config.min_height = p.min_height;
+    config.max_height = p.max_height;
+    config.range_min = p.range_min;
+    config.range_max = p.range_max;
+    config.hole_detection = p.hole_detection;
+    config.hole_depth = p.hole_depth;
+  };
+  if (first_reconfigure_)
+  {
+    // The server's first call carries its clamped copy of the start-up values (it cannot hold
+    // "no limit" = inf): the loaded, validated parameters win, and the server shows them.
+    first_reconfigure_ = false;
+    write(params_);
+    return;
+  }
+  Parameters p = params_;
+  p.floor_height = config.floor_height;
+  p.min_height = config.min_height;
+  p.max_height = config.max_height;
+  p.range_min = config.range_min;
+  p.range_max = config.range_max;
+  p.hole_detection = config.hole_detection;
+  p.hole_depth = config.hole_depth;
+  try
+  {
+    projector_.setParameters(p);  // validates
+    params_ = p;
+    ROS_INFO("[%s] reconfigured: band %.3f .. %.3f m above floor %.3f m, range %.3f .. %.3f m, holes %s (depth %.3f m)",
+             private_nh_.getNamespace().c_str(), p.min_height, p.max_height, p.floor_height, p.range_min, p.range_max,
+             p.hole_detection ? "on" : "off", p.hole_depth);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    ROS_WARN("[%s] rejected a dynamic_reconfigure change: %s; keeping the previous values",
+             private_nh_.getNamespace().c_str(), e.what());
+    write(params_);
+  }
+}
+
+void DepthFilterScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  const ros::WallTime now = ros::WallTime::now();
+  const double period = std::max((now - last_report_).toSec(), 1e-3);
+  const double rate = static_cast<double>(received_ - received_at_last_report_) / period;
+  const std::uint64_t problems = tf_failures_ + malformed_ + stale_;
+  const bool subscribed = subscribed_;
+
+  if (problems > problems_at_last_report_)
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "clouds dropped (transform, malformed or late)");
+  else if (subscribed && rate == 0.0)
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "subscribed, but no cloud arrives on cloud_in");
+  else
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, subscribed ? "converting" : "idle (nobody listens)");
+
+  status.add("subscribed", subscribed);
+  status.add("input rate [Hz]", rate);
+  status.add("clouds received", received_);
+  status.add("scans published", published_);
+  status.add("processing time, last [ms]", last_ms_);
+  status.add("processing time, mean [ms]", published_ > 0 ? sum_ms_ / static_cast<double>(published_) : 0.0);
+  status.add("processing time, max [ms]", max_ms_);
+  status.add("transform failures", tf_failures_);
+  status.add("late clouds dropped (transform_tolerance)", stale_);
+  status.add("malformed clouds dropped", malformed_);
+  received_at_last_report_ = received_;
+  problems_at_last_report_ = problems;
+  last_report_ = now;
+}
+
+}  // namespace depth_filter_scan_converter
