@@ -1,0 +1,116 @@
+"""The node against its configuration, with its own roscore on a free port (temporary
+ROS_HOME / ROS_LOG_DIR): the shipped YAML starts; bad configurations stop the node at
+start-up with the parameter's name and a non-zero exit (and the nodelet reports FATAL and
+does nothing); a malformed scan is dropped with a message naming the source and the fault."""
+import os
+import signal
+import socket
+import subprocess
+import tempfile
+import time
+
+import pytest
+
+PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+GOOD_SOURCE = '{name: a, topic: a/scan}'
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope='module')
+def ros_env():
+    tmp = tempfile.mkdtemp(prefix='merger_test_')
+    port = free_port()
+    env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:%d' % port, ROS_HOME=tmp, ROS_LOG_DIR=tmp,
+               PYENV_VERSION='system', ROSCONSOLE_FORMAT='[${severity}] ${message}',
+               ROSCONSOLE_STDOUT_LINE_BUFFERED='1')
+    core = subprocess.Popen(['roscore', '-p', str(port)], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.time() + 30
+    while time.time() < deadline:
+        if subprocess.run(['rosparam', 'list'], env=env, capture_output=True).returncode == 0:
+            break
+        time.sleep(0.3)
+    else:
+        core.terminate()
+        pytest.fail('roscore did not start')
+    yield env
+    core.terminate()
+    core.wait(timeout=20)
+
+
+def set_params(env, ns, yaml_text):
+    path = os.path.join(env['ROS_HOME'], ns + '.yaml')
+    with open(path, 'w') as f:
+        f.write(yaml_text)
+    subprocess.run(['rosparam', 'load', path, '/' + ns], env=env, check=True)
+
+
+def run_node(env, name, wait):
+    """Starts the node; returns (exit code or None if still running after `wait` s, output)."""
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name],
+                         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        out, _ = p.communicate(timeout=wait)
+        return p.returncode, out
+    except subprocess.TimeoutExpired:
+        p.send_signal(signal.SIGINT)  # roscpp shuts down cleanly on SIGINT
+        out, _ = p.communicate(timeout=20)
+        return None, out
+
+
+def test_shipped_config_starts(ros_env):
+    subprocess.run(['rosparam', 'load', os.path.join(PKG, 'config', 'paper_robot.yaml'), '/merger_ok'],
+                   env=ros_env, check=True)
+    code, out = run_node(ros_env, 'merger_ok', 4.0)
+    assert code is None, out
+    assert 'merging 4 sources' in out
+
+
+@pytest.mark.parametrize('yaml_text,parameter', [
+    ('sources: [{name: a, topic: x}, {name: a, topic: y}]', 'sources[1].name'),
+    ('sources: [{name: a}]', 'sources[0].topic'),
+    ('sources: [{name: a, topic: x, range_min: 5.0, range_max: 2.0}]', 'sources[0].range_min'),
+    ('angle_min: 1.0\nangle_max: 0.5\nsources: [%s]' % GOOD_SOURCE, 'angle_min'),
+    ('sources: [{name: a, topic: x, timout: 1.0}]', 'sources[0].timout'),
+    ('range_max: far\nsources: [%s]' % GOOD_SOURCE, 'range_max'),
+    ('odom_queue_size: 1\nsources: [%s]' % GOOD_SOURCE, 'odom_queue_size'),
+    ('output_frame: base_link', 'sources'),
+])
+def test_bad_config_stops_node_naming_parameter(ros_env, yaml_text, parameter):
+    ns = 'bad_%d' % (abs(hash(yaml_text)) % 100000)
+    set_params(ros_env, ns, yaml_text)
+    code, out = run_node(ros_env, ns, 15.0)
+    assert code is not None and code != 0, out
+    assert 'FATAL' in out and "parameter '%s'" % parameter in out, out
+
+
+def test_bad_config_nodelet_fatal(ros_env):
+    set_params(ros_env, 'bad_nodelet', 'sources: [{name: a, topic: x}, {name: a, topic: y}]')
+    p = subprocess.Popen(['rosrun', 'nodelet', 'nodelet', 'standalone', 'multi_laserscan_merger/MultiLaserScanMergerNodelet',
+                          '__name:=bad_nodelet'], env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(5.0)
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=20)
+    assert 'FATAL' in out and "parameter 'sources[1].name'" in out and 'duplicate' in out, out
+    assert 'merging 1 sources' not in out
+
+
+def test_malformed_scan_is_reported(ros_env):
+    set_params(ros_env, 'merger_m', 'odom_topic: ""\nsources: [{name: front, topic: m/scan}]')
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_m'],
+                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(2.0)
+    subprocess.run(['rostopic', 'pub', '-1', '/m/scan', 'sensor_msgs/LaserScan',
+                    '{header: {frame_id: base_link}, angle_min: 0.0, angle_max: 1.0, angle_increment: 0.1, '
+                    'range_max: 10.0, ranges: [1.0, 2.0]}'], env=ros_env, check=True, capture_output=True, timeout=30)
+    time.sleep(1.0)
+    alive = p.poll() is None
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=20)
+    assert alive, out
+    assert "source 'front'" in out and 'malformed scan dropped' in out and 'ranges length' in out, out
