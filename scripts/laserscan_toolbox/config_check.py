@@ -58,6 +58,7 @@ CONVERTER = {
     "intensity_field": Key("str", ""),
     "publish_filtered_cloud": Key("bool", False),
     "tf_buffer_duration": Key("float", 10.0, "s", lo=0.0, lo_open=True),
+    "queue_size": Key("int", 10, lo=1, doc="clouds waiting for their transform"),
 }
 CONVERTER_PAIRS = [("min_height", "max_height"), ("angle_min", "angle_max"),
                    ("range_min", "range_max")]
@@ -72,7 +73,8 @@ MERGER = {
     "use_inf": Key("bool", True),
     "inf_epsilon": Key("float", 1.0, "m", lo=0.0),
     "odom_topic": Key("str", "odom", doc="empty disables motion compensation"),
-    "odom_queue_size": Key("int", 100, lo=1),
+    # the merger reads it as a number that must be whole (100 and 100.0 both work)
+    "odom_queue_size": Key("whole", 100, lo=1),
     "publish_rate": Key("float", 0.0, "Hz", lo=0.0),
     "sources": None,  # checked by check_sources
 }
@@ -113,8 +115,9 @@ def check_value(path, key, value):
             return ["%s: NaN is not a value" % path]
         if key.angle and not (-math.pi - PI_TOL <= v <= math.pi + PI_TOL):
             return ["%s: angle %g rad is outside [-pi, pi]" % (path, v)]
-    elif key.kind == "int":
-        if isinstance(value, bool) or not isinstance(value, int):
+    elif key.kind in ("int", "whole"):
+        whole_float = (key.kind == "whole" and isinstance(value, float) and value.is_integer())
+        if isinstance(value, bool) or not (isinstance(value, int) or whole_float):
             return ["%s: expected an integer, got %s %r" % (path, _type_name(value), value)]
         v = value
     elif key.kind == "bool":
