@@ -57,8 +57,8 @@ def inspect_bag(path, stamps=True):
         info["size"] = os.path.getsize(path)
         for t, v in ti.items():
             info["topics"][t] = {"type": v.msg_type, "count": v.message_count,
-                                 "frequency": v.frequency, "stamps": [], "bytes": 0}
-        for topic, raw, _ in bag.read_messages(raw=True):
+                                 "frequency": v.frequency, "stamps": [], "bytes": 0, "age": []}
+        for topic, raw, bag_t in bag.read_messages(raw=True):
             entry = info["topics"][topic]
             data, pytype = raw[1], raw[4]
             entry["bytes"] += len(data)
@@ -66,6 +66,7 @@ def inspect_bag(path, stamps=True):
                 s = _header_stamp(data)
                 if s is not None:
                     entry["stamps"].append(s)
+                    entry["age"].append(bag_t.to_sec() - s)  # already old when recorded
         for _, msg, _ in bag.read_messages(topics=["/tf_static"]):
             for tr in msg.transforms:
                 q = tr.transform.rotation
@@ -493,7 +494,8 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
                "inputs": {t: {"type": v["type"], "count": v["count"],
                               "rate_hz": metrics.rate_stats(v["stamps"])["rate"]
                               if v["stamps"] else v["frequency"],
-                              "bytes_per_s": v["bytes"] / max(info["end"] - info["start"], 1e-9)}
+                              "bytes_per_s": v["bytes"] / max(info["end"] - info["start"], 1e-9),
+                              "age_median_s": float(np.median(v["age"])) if v["age"] else None}
                           for t, v in info["topics"].items()},
                "outputs": output_stats(run, info), "cpu": run["cpu"],
                "playback_wall_s": run["wall"], "unrecorded_outputs":

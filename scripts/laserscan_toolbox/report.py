@@ -105,8 +105,11 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
                          for n, v in m.items() if isinstance(v, dict) and "iou" in v]),
                   "", "![maps](maps/maps.png)", ""]
     lines += ["## Inputs (bag)", "",
-              table(["topic", "type", "messages", "rate Hz", "kB/s"],
-                    [[t, v["type"], v["count"], fmt(v["rate_hz"]), fmt(v["bytes_per_s"], 1e-3)]
+              "Age: bag time minus header stamp, i.e. how old a message already was when "
+              "recorded; an output's latency includes its inputs' age.", "",
+              table(["topic", "type", "messages", "rate Hz", "kB/s", "age median ms"],
+                    [[t, v["type"], v["count"], fmt(v["rate_hz"]), fmt(v["bytes_per_s"], 1e-3),
+                      fmt(v.get("age_median_s"), 1000)]
                      for t, v in sorted(results["inputs"].items())]), ""]
     if plots:
         lines += ["## Plots", ""] + ["![%s](%s)" % (k, v) for k, v in plots.items()] + [""]
