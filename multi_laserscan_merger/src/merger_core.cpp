@@ -49,7 +49,8 @@ projectBeams(std::size_t len, const float* __restrict rg, const float* __restric
     // Bitwise & on purpose: no short-circuit branches in the vectorised loop.
     const int in_view = fg[j] > 0.5f;
     const int above_min = v >= rmin;
-    const int ok = in_view & above_min & (v <= rmax);
+    // v < +Inf: a source and a message both without a range limit must not make +Inf a point.
+    const int ok = in_view & above_min & (v <= rmax) & (v < std::numeric_limits<float>::infinity());
     const float r = ok ? v : 1.0f;
     const float fj = static_cast<float>(j);
     const float a00 = m00 + fj * d00, a01 = m01 + fj * d01, a02 = m02 + fj * d02;

@@ -641,6 +641,24 @@ TEST(Fusion, TwoSourcesClosestWinsAndNoReturnNeverHides)
   EXPECT_EQ(out.intensities[17], 0.0f);
 }
 
+TEST(Fusion, NoReturnStaysNoReturnWithoutAnyRangeLimit)
+{
+  MergerCore core(oneSource());  // the source's range_max is +Inf
+  Scan a{ std::vector<float>(360, kInfF), {} };
+  a.ranges[10] = 2.0f;
+  ScanView v = a.view();
+  v.range_max = std::numeric_limits<double>::infinity();  // and the message's too
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ input(v) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  std::size_t finite = 0;
+  for (float r : out.ranges)
+    finite += std::isfinite(r) ? 1 : 0;
+  EXPECT_EQ(finite, 1u);
+  EXPECT_NEAR(out.ranges[40], 2.0f, 1e-5);
+  EXPECT_EQ(out.ranges[44], kInfF);
+}
+
 TEST(Fusion, OutputLimitsAndUseInf)
 {
   MergerParams p = oneSource();
