@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "beam_kernel.hpp"
 #include "multi_laserscan_merger/fast_math.hpp"
 
 namespace multi_laserscan_merger
@@ -12,7 +13,7 @@ namespace
 {
 constexpr float kFInf = std::numeric_limits<float>::infinity();
 constexpr float kFNaN = std::numeric_limits<float>::quiet_NaN();
-constexpr std::size_t kScratch = 16;  // power of two
+
 
 // The beams lie in the sensor's x-y plane (z = 0), and the output keeps only x and y:
 // the two rows and three useful columns of the 3D transform are all the hot loop needs.
@@ -26,49 +27,6 @@ Eigen::Matrix<float, 2, 3> planarPart(const Eigen::Isometry3d& t)
   return m;
 }
 
-
-// Pass 1 of addScan for one group of beams: output bin (or -1) and planar range of every beam.
-// Branch-free so that the compiler vectorises it; compiled for AVX-512, AVX2+FMA and the
-// baseline, the best one is picked at load time (the machine's CPU decides, not the build).
-// m = { m00 m01 m02 m10 m11 m12, and their per-beam steps (deskew; zero otherwise) }.
-// Beams inside the mask holding NaN, -Inf or a range below range_min get bin n_out
-// (pass 3 looks at them again); other beams left out get one of kScratch bins after it
-// (spread, so that pass 2 has no store-to-load chain through one bin). Scratch bins let
-// pass 2 run without a branch.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void
-projectBeams(std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
-             const float* __restrict sg, const float* __restrict m, float rmin, float rmax, float amin, float inv_inc,
-             int wrap, unsigned n_out, int* __restrict kg, float* __restrict og)
-{
-  constexpr float kTwoPi = static_cast<float>(2.0 * kPi);
-  const float m00 = m[0], m01 = m[1], m02 = m[2], m10 = m[3], m11 = m[4], m12 = m[5];
-  const float d00 = m[6], d01 = m[7], d02 = m[8], d10 = m[9], d11 = m[10], d12 = m[11];
-  for (std::size_t j = 0; j < len; ++j)
-  {
-    const float v = rg[j];
-    // Bitwise & on purpose: no short-circuit branches in the vectorised loop.
-    const int in_view = fg[j] > 0.5f;
-    const int above_min = v >= rmin;
-    // v < +Inf: a source and a message both without a range limit must not make +Inf a point.
-    const int ok = in_view & above_min & (v <= rmax) & (v < std::numeric_limits<float>::infinity());
-    const float r = ok ? v : 1.0f;
-    const float fj = static_cast<float>(j);
-    const float a00 = m00 + fj * d00, a01 = m01 + fj * d01, a02 = m02 + fj * d02;
-    const float a10 = m10 + fj * d10, a11 = m11 + fj * d11, a12 = m12 + fj * d12;
-    const float x = r * (a00 * cg[j] + a01 * sg[j]) + a02;
-    const float y = r * (a10 * cg[j] + a11 * sg[j]) + a12;
-    float rel = fastAtan2(y, x) - amin;
-    rel += rel < 0.0f ? kTwoPi : 0.0f;
-    rel -= rel >= kTwoPi ? kTwoPi : 0.0f;
-    int k = static_cast<int>(rel * inv_inc + 0.5f);
-    k -= k >= wrap ? wrap : 0;
-    og[j] = std::sqrt(x * x + y * y);
-    // -2 flags the rare beams that pass 3 looks at again (no second sweep over the scan).
-    const int skip = (in_view & (above_min ^ 1)) ? static_cast<int>(n_out) :
-                                                   static_cast<int>(n_out + 1 + (j & (kScratch - 1)));
-    kg[j] = (ok & (static_cast<unsigned>(k) < n_out)) ? k : skip;
-  }
-}
 
 // Output limits: beyond range_max is no return (+Inf or range_max + inf_epsilon), below
 // range_min is -Inf (REP 117: too close), NaN stays NaN. Vectorised like projectBeams.
@@ -340,6 +298,7 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
     range_buffer_.resize(n);
     special_buffer_.resize(n);
   }
+  std::size_t n_special = 0;
   int* kb = bin_buffer_.data();
   float* rb = range_buffer_.data();
   const float* ranges = scan.ranges;
@@ -366,7 +325,7 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
     }
     const std::size_t len = std::min(n, b0 + group_size) - b0;
     const float m_row[12] = { m00, m01, m02, m10, m11, m12, d00, d01, d02, d10, d11, d12 };
-    projectBeams(len, ranges + b0, fov + b0, cs + b0, sn + b0, m_row, rmin, rmax, amin, inv_inc, wrap,
+    n_special += projectBeams(len, ranges + b0, fov + b0, cs + b0, sn + b0, m_row, rmin, rmax, amin, inv_inc, wrap,
                             n_out, kb + b0, rb + b0);
   }
 
@@ -377,15 +336,17 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
   float* ibins = with_intensity ? ibins_.data() : nullptr;
   const int special_bin = static_cast<int>(n_out_);
   const float* intens = scan.intensities;
+  // The beams pass 3 needs are collected on the way (a store per beam is cheaper than a
+  // second sweep).
   std::uint32_t* special_list = special_buffer_.data();
-  std::size_t n_special = 0;
+  std::size_t n_listed = 0;
   if (ibins == nullptr)
   {
     for (std::size_t i = c.first_in; i < c.end_in; ++i)
     {
       const int k = kb[i];
-      special_list[n_special] = static_cast<std::uint32_t>(i);
-      n_special += k == special_bin ? 1 : 0;
+      special_list[n_listed] = static_cast<std::uint32_t>(i);
+      n_listed += k == special_bin ? 1 : 0;
       const float bv = bins[k], rr = rb[i];
       bins[k] = bv < rr ? bv : rr;
     }
@@ -395,8 +356,8 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
     for (std::size_t i = c.first_in; i < c.end_in; ++i)
     {
       const int k = kb[i];
-      special_list[n_special] = static_cast<std::uint32_t>(i);
-      n_special += k == special_bin ? 1 : 0;
+      special_list[n_listed] = static_cast<std::uint32_t>(i);
+      n_listed += k == special_bin ? 1 : 0;
       const float rr = rb[i];
       if (!(bins[k] <= rr))
       {
@@ -413,7 +374,7 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
   // range_min, unless the source's own range_min is tighter: then everything closer
   // than it (the robot's body, typically) is deliberately ignored like an invalid reading.
   const bool keep_too_close = !(sp.range_min > scan.range_min);
-  for (std::size_t s_i = 0; s_i < n_special; ++s_i)
+  for (std::size_t s_i = 0; s_i < n_listed; ++s_i)
   {
     const std::size_t i = special_list[s_i];
     const float v = ranges[i];

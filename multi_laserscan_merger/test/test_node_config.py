@@ -114,3 +114,22 @@ def test_malformed_scan_is_reported(ros_env):
     out, _ = p.communicate(timeout=20)
     assert alive, out
     assert "source 'front'" in out and 'malformed scan dropped' in out and 'ranges length' in out, out
+
+
+def test_missing_transform_is_reported(ros_env):
+    set_params(ros_env, 'merger_tf', 'odom_topic: ""\nsources: [{name: side, topic: tf/scan}]')
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_tf'],
+                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(2.0)
+    pub = subprocess.Popen(['rostopic', 'pub', '-r', '5', '/tf/scan', 'sensor_msgs/LaserScan',
+                            '{header: {frame_id: nowhere}, angle_min: 0.0, angle_max: 1.0, angle_increment: 0.1, '
+                            'range_max: 10.0, ranges: [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]}'],
+                           env=ros_env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(3.0)
+    pub.send_signal(signal.SIGINT)
+    pub.wait(timeout=20)
+    alive = p.poll() is None
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=20)
+    assert alive, out
+    assert "source 'side'" in out and "no transform 'nowhere' -> 'base_link'" in out and 'scan dropped' in out, out

@@ -1,0 +1,69 @@
+// The hot loop of the merge. Range validity is decided on the bit patterns (integer compares:
+// NaN- and Inf-proof whatever the floating-point flags), so every value that reaches the float
+// math is finite.
+#include "beam_kernel.hpp"
+
+#include <cfloat>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#include "multi_laserscan_merger/fast_math.hpp"
+
+namespace multi_laserscan_merger
+{
+
+namespace
+{
+inline std::int32_t bitsOf(float f)
+{
+  std::int32_t b;
+  std::memcpy(&b, &f, sizeof b);
+  return b;
+}
+}  // namespace
+
+// AVX-512, AVX2+FMA and baseline versions; the CPU picks at load time.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) int
+projectBeams(std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
+             const float* __restrict sg, const float* __restrict m, float rmin, float rmax, float amin, float inv_inc,
+             int wrap, unsigned n_out, int* __restrict kg, float* __restrict og)
+{
+  constexpr float kTwoPi = 6.28318530717958647692f;
+  constexpr std::int32_t kInfBits = 0x7f800000;
+  // For non-negative floats the order of the bit patterns is the order of the values;
+  // negative values (and -0, -Inf, negative NaN) are negative integers, +Inf is kInfBits and
+  // every positive NaN is above it.
+  const std::int32_t min_bits = bitsOf(rmin > 0.0f ? rmin : 0.0f);
+  const std::int32_t max_bits = bitsOf(rmax < FLT_MAX ? rmax : FLT_MAX);
+  const float m00 = m[0], m01 = m[1], m02 = m[2], m10 = m[3], m11 = m[4], m12 = m[5];
+  const float d00 = m[6], d01 = m[7], d02 = m[8], d10 = m[9], d11 = m[10], d12 = m[11];
+  int special = 0;
+  for (std::size_t j = 0; j < len; ++j)
+  {
+    std::int32_t b;
+    std::memcpy(&b, rg + j, sizeof b);
+    // Bitwise & on purpose: no short-circuit branches in the vectorised loop.
+    const int in_view = fg[j] > 0.5f;
+    const int ok = in_view & (b >= min_bits) & (b <= max_bits);
+    const int invalid = in_view & ((b < min_bits) | (b > kInfBits));  // below range_min, -Inf, NaN
+    special += invalid;
+    const float r = ok ? rg[j] : 1.0f;
+    const float fj = static_cast<float>(j);
+    const float a00 = m00 + fj * d00, a01 = m01 + fj * d01, a02 = m02 + fj * d02;
+    const float a10 = m10 + fj * d10, a11 = m11 + fj * d11, a12 = m12 + fj * d12;
+    const float x = r * (a00 * cg[j] + a01 * sg[j]) + a02;
+    const float y = r * (a10 * cg[j] + a11 * sg[j]) + a12;
+    float rel = fastAtan2(y, x) - amin;
+    rel += rel < 0.0f ? kTwoPi : 0.0f;
+    rel -= rel >= kTwoPi ? kTwoPi : 0.0f;
+    int k = static_cast<int>(rel * inv_inc + 0.5f);
+    k -= k >= wrap ? wrap : 0;
+    og[j] = std::sqrt(x * x + y * y);
+    const int skip = invalid ? static_cast<int>(n_out) : static_cast<int>(n_out + 1 + (j & (kScratch - 1)));
+    kg[j] = (ok & (static_cast<unsigned>(k) < n_out)) ? k : skip;
+  }
+  return special;
+}
+
+}  // namespace multi_laserscan_merger
