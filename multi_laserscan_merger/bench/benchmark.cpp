@@ -2,8 +2,10 @@
 // into 1441 output beams (-pi..pi, pi/720) with motion compensation, against the
 // straightforward references measured in the same run:
 //  - per point: sin/cos, 4x4 transform of every point, atan2 back (as a hand-written merger does);
-//  - laser_geometry::projectLaser + tf2::doTransform of the cloud + atan2 binning
-//    (the usual ROS 1 merger's path).
+//  - laser_geometry::projectLaser + tf2::doTransform of the cloud + atan2 binning;
+//  - laser_geometry::transformLaserScanToPointCloud into the fixed frame `odom` with a
+//    tf2::BufferCore (per-beam interpolation of the sensor pose: the usual ROS 1 merger's
+//    motion-aware path), then odom -> base_link at the output time and atan2 binning.
 // Prints the per-merge times and the ratios. Not a test: figures only.
 #include <benchmark/benchmark.h>
 
@@ -12,6 +14,7 @@
 #include <random>
 
 #include <laser_geometry/laser_geometry.h>
+#include <tf2/buffer_core.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_sensor_msgs/tf2_sensor_msgs.h>
@@ -28,6 +31,7 @@ struct Scenario
   std::vector<sensor_msgs::LaserScan> scans;
   std::vector<Eigen::Isometry3d> mounts;
   OdometryBuffer odom{ 100 };
+  tf2::BufferCore tf{ ros::Duration(10.0) };  // the same robot motion and mounts for the tf reference
   double t_out = 0.0;
 
   explicit Scenario(bool deskew)
@@ -80,12 +84,27 @@ struct Scenario
     scans.push_back(make_scan(0.960, -41.0 * deg, 0.25 * deg, 328, 0.0));
     mounts = { mount(0.37, 0.24, 0.2, kPi / 4), mount(-0.37, -0.24, 0.2, -3 * kPi / 4),
                mount(0.37, 0.0, 0.5, 0.0), mount(-0.37, 0.0, 0.5, kPi) };
+    for (int i = 0; i < 4; ++i)
+    {
+      scans[i].header.frame_id = names[i];
+      geometry_msgs::TransformStamped t = tf2::eigenToTransform(mounts[i]);
+      t.header.frame_id = "base_link";
+      t.child_frame_id = names[i];
+      tf.setTransform(t, "bench", true);
+    }
     // 50 Hz odometry of a robot driving at 0.5 m/s while turning at 0.5 rad/s.
     for (int k = 0; k <= 60; ++k)
     {
       const double t = 0.02 * k, yaw = 0.5 * t;
       odom.add(t, Eigen::Vector3d(std::sin(yaw), 1.0 - std::cos(yaw), 0.0),
                Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ())));
+      Pose p;
+      odom.poseAt(t, p);
+      geometry_msgs::TransformStamped ts = tf2::eigenToTransform(p.toIsometry());
+      ts.header.stamp.fromSec(t);
+      ts.header.frame_id = "odom";
+      ts.child_frame_id = "base_link";
+      tf.setTransform(ts, "bench", false);
     }
     t_out = 1.0;
   }
@@ -181,7 +200,33 @@ void referenceLaserGeometry(const Scenario& sc, laser_geometry::LaserProjection&
   }
 }
 
-double g_core_ns = 0.0, g_core_deskew_ns = 0.0, g_ref_ns = 0.0, g_lg_ns = 0.0;
+// Reference 3: laser_geometry with tf (per-beam sensor pose between the scan's start and end
+// into the fixed frame odom), then odom -> base_link at the output time, atan2 binning.
+void referenceLaserGeometryTf(const Scenario& sc, laser_geometry::LaserProjection& projector, std::vector<float>& out)
+{
+  const OutputParams& o = sc.params.output;
+  out.assign(o.beamCount(), std::numeric_limits<float>::infinity());
+  sensor_msgs::PointCloud2 in_odom, moved;
+  const geometry_msgs::TransformStamped base_T_odom = sc.tf.lookupTransform("base_link", "odom", ros::Time(sc.t_out));
+  for (std::size_t i = 0; i < sc.scans.size(); ++i)
+  {
+    const auto& scan = sc.scans[i];
+    projector.transformLaserScanToPointCloud("odom", scan, in_odom, const_cast<tf2::BufferCore&>(sc.tf));
+    tf2::doTransform(in_odom, moved, base_T_odom);
+    const SourceParams& sp = sc.params.sources[i];
+    // The mask (sensor frame) is applied on the beam index the cloud carries.
+    sensor_msgs::PointCloud2ConstIterator<int> index(moved, "index");
+    for (sensor_msgs::PointCloud2ConstIterator<float> x(moved, "x"), y(moved, "y"); x != x.end(); ++x, ++y, ++index)
+    {
+      const double a = scan.angle_min + *index * scan.angle_increment;
+      if (a < sp.angle_min || a > sp.angle_max)
+        continue;
+      keepClosest(out, *x, *y, o);
+    }
+  }
+}
+
+double g_core_ns = 0.0, g_core_deskew_ns = 0.0, g_ref_ns = 0.0, g_lg_ns = 0.0, g_lgtf_ns = 0.0;
 
 void BM_CoreMerge(benchmark::State& state)
 {
@@ -238,10 +283,24 @@ void BM_ReferenceLaserGeometry(benchmark::State& state)
   }
 }
 
+void BM_ReferenceLaserGeometryTf(benchmark::State& state)
+{
+  Scenario sc(false);
+  laser_geometry::LaserProjection projector;
+  std::vector<float> out;
+  for (auto _ : state)
+  {
+    referenceLaserGeometryTf(sc, projector, out);
+    benchmark::DoNotOptimize(out.data());
+    benchmark::ClobberMemory();
+  }
+}
+
 BENCHMARK(BM_CoreMerge)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_CoreMergeDeskew)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ReferenceSinCosAtan2)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ReferenceLaserGeometry)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ReferenceLaserGeometryTf)->Unit(benchmark::kMicrosecond);
 
 // Collects the per-iteration CPU times (steadier than wall time on a shared machine)
 // to print the ratios at the end.
@@ -267,14 +326,60 @@ public:
         g_ref_ns = ns;
       else if (name == "BM_ReferenceLaserGeometry")
         g_lg_ns = ns;
+      else if (name == "BM_ReferenceLaserGeometryTf")
+        g_lgtf_ns = ns;
     }
   }
 };
+
+// Fraction of the core's real ranges that a reference also has within one bin and 1 cm:
+// shows that the references compute the same scan (so the ratio compares like with like).
+double agreement(const std::vector<float>& core, const std::vector<float>& ref)
+{
+  std::size_t n = 0, ok = 0;
+  for (std::size_t k = 0; k + 1 < core.size(); ++k)
+  {
+    if (!std::isfinite(core[k]))
+      continue;
+    ++n;
+    for (std::size_t j = (k == 0 ? 0 : k - 1); j <= k + 1 && j < ref.size(); ++j)
+      if (std::abs(ref[j] - core[k]) < 0.01f)
+      {
+        ++ok;
+        break;
+      }
+  }
+  return n ? static_cast<double>(ok) / n : 0.0;
+}
+
+void checkReferences()
+{
+  Scenario sc(false);
+  MergerCore core(sc.params);
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge(sc.inputs(), sc.t_out, &sc.odom, Eigen::Isometry3d::Identity(), out, st);
+  laser_geometry::LaserProjection projector;
+  std::vector<float> r1, r2, r3;
+  referenceSinCos(sc, r1);
+  referenceLaserGeometry(sc, projector, r2);
+  referenceLaserGeometryTf(sc, projector, r3);
+  // laser_geometry with tf moves every lidar beam from its own time: compare with the deskewing core.
+  Scenario sc_deskew(true);
+  MergerCore core_deskew(sc_deskew.params);
+  MergedScan out_deskew;
+  core_deskew.merge(sc_deskew.inputs(), sc_deskew.t_out, &sc_deskew.odom, Eigen::Isometry3d::Identity(), out_deskew, st);
+  std::printf("Agreement of the references with the core (real ranges within one bin and 1 cm): "
+              "sin/cos %.1f%%, laser_geometry+tf2 %.1f%%, laser_geometry with tf (against the deskewing core) %.1f%%\n\n",
+              100 * agreement(out.ranges, r1), 100 * agreement(out.ranges, r2),
+              100 * agreement(out_deskew.ranges, r3));
+}
 }  // namespace
 
 int main(int argc, char** argv)
 {
   benchmark::Initialize(&argc, argv);
+  checkReferences();
   RatioReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
   if (g_core_ns > 0.0 && g_ref_ns > 0.0 && g_lg_ns > 0.0)
@@ -287,6 +392,10 @@ int main(int argc, char** argv)
                 g_ref_ns / g_core_ns);
     std::printf("  reference laser_geometry+tf2 %8.2f us  ratio reference/core %6.1fx\n", g_lg_ns / 1e3,
                 g_lg_ns / g_core_ns);
+    if (g_lgtf_ns > 0.0 && g_core_deskew_ns > 0.0)
+      std::printf("  reference laser_geometry, tf  %8.2f us  ratio reference/deskewed core %6.1fx "
+                  "(it moves every beam from its own time too)\n",
+                  g_lgtf_ns / 1e3, g_lgtf_ns / g_core_deskew_ns);
     if (g_core_deskew_ns > 0.0)
       std::printf("  (deskewed core vs sin/cos reference without deskew: %.1fx)\n", g_ref_ns / g_core_deskew_ns);
   }

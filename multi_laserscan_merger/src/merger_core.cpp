@@ -345,8 +345,8 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
     for (std::size_t i = c.first_in; i < c.end_in; ++i)
     {
       const int k = kb[i];
-      special_list[n_listed] = static_cast<std::uint32_t>(i);
-      n_listed += k == special_bin ? 1 : 0;
+      if (k == special_bin)  // rare, well predicted
+        special_list[n_listed++] = static_cast<std::uint32_t>(i);
       const float bv = bins[k], rr = rb[i];
       bins[k] = bv < rr ? bv : rr;
     }
