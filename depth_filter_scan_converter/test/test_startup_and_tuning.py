@@ -1,0 +1,191 @@
+"""The converter node / nodelet against its configuration, with a private roscore on a free port
+(temporary ROS_HOME / ROS_LOG_DIR): the shipped YAML starts; a bad configuration stops the node
+at start-up with the parameter's name and a non-zero exit, and makes the nodelet report FATAL
+and do nothing; dynamic_reconfigure rejects min >= max and keeps the previous values; the
+diagnostics report input rate, processing time, transform failures and malformed clouds."""
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+import pytest
+
+PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SHIPPED = os.path.join(PKG, "config", "depth_filter_scan_converter.yaml")
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def ros_env():
+    tmp = tempfile.mkdtemp(prefix="converter_test_")
+    port = free_port()
+    env = dict(
+        os.environ,
+        ROS_MASTER_URI="http://127.0.0.1:%d" % port,
+        ROS_HOME=tmp,
+        ROS_LOG_DIR=tmp,
+        PYENV_VERSION="system",
+        ROSCONSOLE_FORMAT="[${severity}] ${message}",
+        ROSCONSOLE_STDOUT_LINE_BUFFERED="1",
+    )
+    core = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 30
+    while time.time() < deadline:
+        if subprocess.run(["rosparam", "list"], env=env, capture_output=True).returncode == 0:
+            break
+        time.sleep(0.3)
+    else:
+        core.terminate()
+        pytest.fail("roscore did not start")
+    yield env
+    core.terminate()
+    core.wait(timeout=20)
+
+
+def load_params(env, ns, yaml_text=None, path=SHIPPED):
+    subprocess.run(["rosparam", "delete", "/" + ns], env=env, capture_output=True)
+    subprocess.run(["rosparam", "load", path, "/" + ns], env=env, check=True)
+    if yaml_text:
+        extra = os.path.join(env["ROS_HOME"], ns + ".yaml")
+        with open(extra, "w") as f:
+            f.write(yaml_text)
+        subprocess.run(["rosparam", "load", extra, "/" + ns], env=env, check=True)
+
+
+def start(env, name, nodelet=False):
+    cmd = (
+        ["rosrun", "nodelet", "nodelet", "standalone", "depth_filter_scan_converter/DepthFilterScanConverterNodelet"]
+        if nodelet
+        else ["rosrun", "depth_filter_scan_converter", "depth_filter_scan_converter_node"]
+    )
+    return subprocess.Popen(cmd + ["__name:=" + name], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+
+def stop(p, timeout=20):
+    """Output of a process; SIGINT first if it still runs (roscpp shuts down cleanly)."""
+    if p.poll() is None:
+        p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=timeout)
+    return out
+
+
+def wait_for_service(env, service, timeout=20):
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if service in subprocess.run(["rosservice", "list"], env=env, capture_output=True, text=True).stdout:
+            return True
+        time.sleep(0.3)
+    return False
+
+
+def test_shipped_config_starts(ros_env):
+    load_params(ros_env, "conv_ok")
+    p = start(ros_env, "conv_ok")
+    time.sleep(3.0)
+    assert p.poll() is None, stop(p)
+    topics = subprocess.run(["rostopic", "list"], env=ros_env, capture_output=True, text=True).stdout.split()
+    out = stop(p)
+    assert "/scan" in topics, out
+
+
+@pytest.mark.parametrize(
+    "yaml_text,parameter",
+    [
+        ("min_height: 1.5\nmax_height: 1.0", "min_height"),
+        ("range_min: 12.0", "range_min"),
+        ("angle_increment: 0.0", "angle_increment"),
+        ("angle_min: 1.0\nangle_max: 0.5", "angle_min"),
+        ("row_stride: 0", "row_stride"),
+        ("range_max: far", "range_max"),
+        ("use_inf: false\nrange_max: .inf", "range_max"),
+        ("reference_frame: ''", "reference_frame"),
+        ("hole_depth: -0.1", "hole_depth"),
+        ("queue_size: 0", "queue_size"),
+    ],
+)
+def test_bad_config_stops_the_node_naming_the_parameter(ros_env, yaml_text, parameter):
+    load_params(ros_env, "conv_bad", yaml_text)
+    p = start(ros_env, "conv_bad")
+    try:
+        out, _ = p.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        pytest.fail("node kept running with a bad configuration: " + stop(p))
+    assert p.returncode != 0
+    assert "FATAL" in out and "'%s'" % parameter in out, out
+
+
+def test_bad_config_makes_the_nodelet_report_fatal_and_do_nothing(ros_env):
+    load_params(ros_env, "conv_bad_nodelet", "min_height: 2.0\nmax_height: 1.0")
+    p = start(ros_env, "conv_bad_nodelet", nodelet=True)
+    time.sleep(3.0)
+    topics = subprocess.run(["rostopic", "list"], env=ros_env, capture_output=True, text=True).stdout.split()
+    out = stop(p)
+    assert "FATAL" in out and "'min_height'" in out, out
+    assert "/conv_bad_nodelet/set_parameters" not in topics
+    assert not any(t.endswith("/scan") and "conv_bad_nodelet" in t for t in topics)
+
+
+RECONFIGURE = r"""
+import json, sys
+import rospy
+import dynamic_reconfigure.client
+rospy.init_node("reconfigure_client", anonymous=True)
+client = dynamic_reconfigure.client.Client(sys.argv[1], timeout=20)
+results = []
+for change in json.loads(sys.argv[2]):
+    cfg = client.update_configuration(change)
+    results.append({k: cfg[k] for k in ("min_height", "max_height", "range_min", "range_max", "hole_depth")})
+print(json.dumps(results))
+"""
+
+
+def test_dynamic_reconfigure_checks_min_below_max(ros_env):
+    load_params(ros_env, "conv_tune")
+    p = start(ros_env, "conv_tune")
+    try:
+        assert wait_for_service(ros_env, "/conv_tune/set_parameters"), "no dynamic_reconfigure service"
+        changes = [
+            {"max_height": 0.01},  # below min_height 0.05: rejected
+            {"min_height": 0.2, "max_height": 0.8},  # fine
+            {"range_min": 20.0},  # above range_max 10: rejected
+            {"range_max": 5.0},  # fine
+        ]
+        r = subprocess.run(
+            [sys.executable, "-c", RECONFIGURE, "/conv_tune", json.dumps(changes)],
+            env=ros_env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert r.returncode == 0, r.stderr
+        results = json.loads(r.stdout.strip().splitlines()[-1])
+    finally:
+        out = stop(p)
+    assert results[0]["max_height"] == pytest.approx(1.0) and results[0]["min_height"] == pytest.approx(0.05)
+    assert results[1]["min_height"] == pytest.approx(0.2) and results[1]["max_height"] == pytest.approx(0.8)
+    assert results[2]["range_min"] == pytest.approx(0.0)
+    assert results[3]["range_max"] == pytest.approx(5.0)
+    assert "rejected a dynamic_reconfigure change" in out and "'min_height'" in out and "'range_min'" in out, out
+
+
+def test_diagnostics_are_published(ros_env):
+    load_params(ros_env, "conv_diag")
+    p = start(ros_env, "conv_diag")
+    try:
+        r = subprocess.run(
+            ["rostopic", "echo", "-n", "3", "/diagnostics"], env=ros_env, capture_output=True, text=True, timeout=30
+        )
+    finally:
+        stop(p)
+    assert "Input and processing" in r.stdout, r.stdout
+    for key in ("input rate [Hz]", "processing time, mean [ms]", "transform failures", "malformed clouds dropped"):
+        assert key in r.stdout, key
