@@ -133,3 +133,66 @@ def test_missing_transform_is_reported(ros_env):
     out, _ = p.communicate(timeout=20)
     assert alive, out
     assert "source 'side'" in out and "no transform 'nowhere' -> 'base_link'" in out and 'scan dropped' in out, out
+
+
+FEED = r'''
+import sys, rospy
+from rosgraph_msgs.msg import Clock
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import LaserScan
+rospy.init_node('jump_feed')
+clock = rospy.Publisher('/clock', Clock, queue_size=10)
+odom = rospy.Publisher('/j/odom', Odometry, queue_size=10)
+scan = rospy.Publisher('/j/scan', LaserScan, queue_size=10)
+after = [0]
+rospy.Subscriber('/scan', LaserScan, lambda m: after.__setitem__(0, after[0] + (m.header.stamp.to_sec() < 90)))
+import time
+time.sleep(1.5)
+def run(t0, seconds, with_odom):
+    t = t0
+    for i in range(int(seconds / 0.01)):
+        t += 0.01
+        stamp = rospy.Time.from_sec(t)
+        clock.publish(Clock(clock=stamp))
+        if with_odom:
+            o = Odometry()
+            o.header.stamp, o.header.frame_id, o.child_frame_id = stamp, 'odom', 'base_link'
+            o.pose.pose.position.x = 0.5 * t
+            o.pose.pose.orientation.w = 1.0
+            odom.publish(o)
+        if i % 10 == 0:
+            s = LaserScan()
+            s.header.stamp, s.header.frame_id = stamp, 'base_link'
+            s.angle_min, s.angle_max, s.angle_increment = -1.0, 1.0, 0.1
+            s.range_max, s.ranges = 10.0, [2.0] * 21
+            scan.publish(s)
+        time.sleep(0.01)
+run(100.0, 2.0, True)     # normal
+run(102.0, 1.5, False)    # odometry stops
+run(50.0, 2.0, True)      # the clock jumps back (a bag played in a loop)
+time.sleep(0.5)
+print('after_jump_outputs', after[0])
+sys.stdout.flush()
+'''
+
+
+def test_time_jump_and_odometry_stop(ros_env):
+    subprocess.run(['rosparam', 'set', '/use_sim_time', 'true'], env=ros_env, check=True)
+    try:
+        set_params(ros_env, 'merger_j', 'odom_topic: j/odom\nsources: [{name: front, topic: j/scan, timeout: 0.5}]')
+        p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_j'],
+                             env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        time.sleep(1.0)
+        feed = subprocess.run(['/usr/bin/python3', '-c', FEED], env=ros_env, capture_output=True, text=True, timeout=60)
+        alive = p.poll() is None
+        p.send_signal(signal.SIGINT)
+        out, _ = p.communicate(timeout=20)
+    finally:
+        subprocess.run(['rosparam', 'delete', '/use_sim_time'], env=ros_env)
+    assert alive, out
+    print(out)
+    assert 'odometry stopped' in out, out
+    assert 'time jumped backwards' in out and 'buffers cleared' in out, out
+    # Merged scans come again after the jump, on the new timeline.
+    assert 'after_jump_outputs' in feed.stdout, feed.stdout + feed.stderr
+    assert int(feed.stdout.split('after_jump_outputs')[1].split()[0]) > 5, feed.stdout
