@@ -85,81 +85,81 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
   m.doc() = "ROS-free core of depth_filter_scan_converter";
 
   py::class_<dfsc::Parameters>(m, "Parameters")
-      .def(py::init<>())
-      .def_readwrite("reference_frame", &dfsc::Parameters::reference_frame)
-      .def_readwrite("floor_height", &dfsc::Parameters::floor_height)
-      .def_readwrite("min_height", &dfsc::Parameters::min_height)
-      .def_readwrite("max_height", &dfsc::Parameters::max_height)
-      .def_readwrite("angle_min", &dfsc::Parameters::angle_min)
-      .def_readwrite("angle_max", &dfsc::Parameters::angle_max)
-      .def_readwrite("angle_increment", &dfsc::Parameters::angle_increment)
-      .def_readwrite("range_min", &dfsc::Parameters::range_min)
-      .def_readwrite("range_max", &dfsc::Parameters::range_max)
-      .def_readwrite("hole_detection", &dfsc::Parameters::hole_detection)
-      .def_readwrite("hole_depth", &dfsc::Parameters::hole_depth)
-      .def_readwrite("transform_tolerance", &dfsc::Parameters::transform_tolerance)
-      .def_readwrite("row_stride", &dfsc::Parameters::row_stride)
-      .def_readwrite("column_stride", &dfsc::Parameters::column_stride)
-      .def_readwrite("use_inf", &dfsc::Parameters::use_inf)
-      .def_readwrite("inf_epsilon", &dfsc::Parameters::inf_epsilon)
-      .def_readwrite("intensity_field", &dfsc::Parameters::intensity_field)
-      .def_readwrite("publish_filtered_cloud", &dfsc::Parameters::publish_filtered_cloud)
-      .def_readwrite("tf_buffer_duration", &dfsc::Parameters::tf_buffer_duration)
-      .def("validate", &dfsc::Parameters::validate, "Raises ValueError naming the bad parameter")
-      .def("beam_count", &dfsc::Parameters::beamCount)
-      .def("no_return_value", &dfsc::Parameters::noReturnValue);
+    .def(py::init<>())
+    .def_readwrite("reference_frame", &dfsc::Parameters::reference_frame)
+    .def_readwrite("floor_height", &dfsc::Parameters::floor_height)
+    .def_readwrite("min_height", &dfsc::Parameters::min_height)
+    .def_readwrite("max_height", &dfsc::Parameters::max_height)
+    .def_readwrite("angle_min", &dfsc::Parameters::angle_min)
+    .def_readwrite("angle_max", &dfsc::Parameters::angle_max)
+    .def_readwrite("angle_increment", &dfsc::Parameters::angle_increment)
+    .def_readwrite("range_min", &dfsc::Parameters::range_min)
+    .def_readwrite("range_max", &dfsc::Parameters::range_max)
+    .def_readwrite("hole_detection", &dfsc::Parameters::hole_detection)
+    .def_readwrite("hole_depth", &dfsc::Parameters::hole_depth)
+    .def_readwrite("transform_tolerance", &dfsc::Parameters::transform_tolerance)
+    .def_readwrite("row_stride", &dfsc::Parameters::row_stride)
+    .def_readwrite("column_stride", &dfsc::Parameters::column_stride)
+    .def_readwrite("use_inf", &dfsc::Parameters::use_inf)
+    .def_readwrite("inf_epsilon", &dfsc::Parameters::inf_epsilon)
+    .def_readwrite("intensity_field", &dfsc::Parameters::intensity_field)
+    .def_readwrite("publish_filtered_cloud", &dfsc::Parameters::publish_filtered_cloud)
+    .def_readwrite("tf_buffer_duration", &dfsc::Parameters::tf_buffer_duration)
+    .def("validate", &dfsc::Parameters::validate, "Raises ValueError naming the bad parameter")
+    .def("beam_count", &dfsc::Parameters::beamCount)
+    .def("no_return_value", &dfsc::Parameters::noReturnValue);
 
   py::class_<dfsc::Projector>(m, "Projector")
-      .def(py::init<const dfsc::Parameters&>(), py::arg("params"))
-      .def("set_parameters", &dfsc::Projector::setParameters)
-      .def(
-          "project",
-          [](dfsc::Projector& self, const py::array& points, const Eigen::Matrix4d& camera_to_reference,
-             int intensity_channel, bool keep_points) {
-            const dfsc::CloudView v = viewOf(points, intensity_channel);
-            std::vector<float> ranges, intensities, kept;
-            self.project(v, isometryOf(camera_to_reference), ranges, &intensities, keep_points ? &kept : nullptr);
-            py::array_t<float> kept_array = toArray(kept);
-            kept_array.resize({ static_cast<py::ssize_t>(kept.size() / 3), static_cast<py::ssize_t>(3) });
-            return std::make_tuple(toArray(ranges), toArray(intensities), kept_array);
-          },
-          py::arg("points"), py::arg("camera_to_reference"), py::arg("intensity_channel") = -1,
-          py::arg("keep_points") = false,
-          "Returns (ranges, intensities, kept_points (K, 3) in the reference frame)");
-
-  m.def(
-      "reference_project",
-      [](const dfsc::Parameters& params, const py::array& points, const Eigen::Matrix4d& camera_to_reference,
-         int intensity_channel) {
+    .def(py::init<const dfsc::Parameters&>(), py::arg("params"))
+    .def("set_parameters", &dfsc::Projector::setParameters)
+    .def(
+      "project",
+      [](dfsc::Projector& self, const py::array& points, const Eigen::Matrix4d& camera_to_reference,
+         int intensity_channel, bool keep_points)
+      {
         const dfsc::CloudView v = viewOf(points, intensity_channel);
-        std::vector<float> ranges, intensities;
-        dfsc::referenceProject(params, v, isometryOf(camera_to_reference), ranges, &intensities);
-        return std::make_tuple(toArray(ranges), toArray(intensities));
+        std::vector<float> ranges, intensities, kept;
+        self.project(v, isometryOf(camera_to_reference), ranges, &intensities, keep_points ? &kept : nullptr);
+        py::array_t<float> kept_array = toArray(kept);
+        kept_array.resize({static_cast<py::ssize_t>(kept.size() / 3), static_cast<py::ssize_t>(3)});
+        return std::make_tuple(toArray(ranges), toArray(intensities), kept_array);
       },
-      py::arg("params"), py::arg("points"), py::arg("camera_to_reference"), py::arg("intensity_channel") = -1);
+      py::arg("points"), py::arg("camera_to_reference"), py::arg("intensity_channel") = -1,
+      py::arg("keep_points") = false, "Returns (ranges, intensities, kept_points (K, 3) in the reference frame)");
 
   m.def(
-      "validate_cloud",
-      [](const std::vector<std::tuple<std::string, std::uint32_t, int, std::uint32_t>>& fields, std::uint32_t width,
-         std::uint32_t height, std::uint32_t point_step, std::uint32_t row_step, bool is_bigendian,
-         const py::bytes& data) {
-        dfsc::CloudLayout layout;
-        layout.width = width;
-        layout.height = height;
-        layout.point_step = point_step;
-        layout.row_step = row_step;
-        layout.is_bigendian = is_bigendian;
-        for (const auto& f : fields)
-          layout.fields.push_back({ std::get<0>(f), std::get<1>(f), static_cast<std::uint8_t>(std::get<2>(f)),
-                                    std::get<3>(f) });
-        const std::string bytes = data;
-        dfsc::CloudView view;
-        return dfsc::makeCloudView(layout, reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), "",
-                                   view);
-      },
-      py::arg("fields"), py::arg("width"), py::arg("height"), py::arg("point_step"), py::arg("row_step"),
-      py::arg("is_bigendian"), py::arg("data"),
-      "Empty string when the layout is usable, else the reason it is not. fields: [(name, offset, datatype, count)]");
+    "reference_project",
+    [](const dfsc::Parameters& params, const py::array& points, const Eigen::Matrix4d& camera_to_reference,
+       int intensity_channel)
+    {
+      const dfsc::CloudView v = viewOf(points, intensity_channel);
+      std::vector<float> ranges, intensities;
+      dfsc::referenceProject(params, v, isometryOf(camera_to_reference), ranges, &intensities);
+      return std::make_tuple(toArray(ranges), toArray(intensities));
+    },
+    py::arg("params"), py::arg("points"), py::arg("camera_to_reference"), py::arg("intensity_channel") = -1);
+
+  m.def(
+    "validate_cloud",
+    [](const std::vector<std::tuple<std::string, std::uint32_t, int, std::uint32_t>>& fields, std::uint32_t width,
+       std::uint32_t height, std::uint32_t point_step, std::uint32_t row_step, bool is_bigendian, const py::bytes& data)
+    {
+      dfsc::CloudLayout layout;
+      layout.width = width;
+      layout.height = height;
+      layout.point_step = point_step;
+      layout.row_step = row_step;
+      layout.is_bigendian = is_bigendian;
+      for (const auto& f : fields)
+        layout.fields.push_back(
+          {std::get<0>(f), std::get<1>(f), static_cast<std::uint8_t>(std::get<2>(f)), std::get<3>(f)});
+      const std::string bytes = data;
+      dfsc::CloudView view;
+      return dfsc::makeCloudView(layout, reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), "", view);
+    },
+    py::arg("fields"), py::arg("width"), py::arg("height"), py::arg("point_step"), py::arg("row_step"),
+    py::arg("is_bigendian"), py::arg("data"),
+    "Empty string when the layout is usable, else the reason it is not. fields: [(name, offset, datatype, count)]");
 
   m.def("fast_atan2", py::vectorize(&dfsc::fastAtan2), py::arg("y"), py::arg("x"));
   m.attr("FAST_ATAN2_MAX_ERROR") = dfsc::kFastAtan2MaxError;

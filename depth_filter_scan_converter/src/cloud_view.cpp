@@ -40,8 +40,8 @@ std::string makeCloudView(const CloudLayout& layout, const std::uint8_t* data, s
   if (layout.is_bigendian)
     return "is_bigendian is true (only little-endian data is supported)";
 
-  const FieldDescription* xyz[3] = { findField(layout, "x"), findField(layout, "y"), findField(layout, "z") };
-  const char* names[3] = { "x", "y", "z" };
+  const FieldDescription* xyz[3] = {findField(layout, "x"), findField(layout, "y"), findField(layout, "z")};
+  const char* names[3] = {"x", "y", "z"};
   for (int i = 0; i < 3; ++i)
   {
     if (!xyz[i])
@@ -67,9 +67,9 @@ std::string makeCloudView(const CloudLayout& layout, const std::uint8_t* data, s
              std::to_string(min_row);
     const std::uint64_t expected = static_cast<std::uint64_t>(layout.row_step) * layout.height;
     if (data_size != expected)
-      return "data size " + std::to_string(data_size) + " does not match row_step*height " +
-             std::to_string(expected) + " (width " + std::to_string(layout.width) + ", height " +
-             std::to_string(layout.height) + ", point_step " + std::to_string(layout.point_step) + ")";
+      return "data size " + std::to_string(data_size) + " does not match row_step*height " + std::to_string(expected) +
+             " (width " + std::to_string(layout.width) + ", height " + std::to_string(layout.height) + ", point_step " +
+             std::to_string(layout.point_step) + ")";
     if (!data)
       return "data pointer is null";
   }

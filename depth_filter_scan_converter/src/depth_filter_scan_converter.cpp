@@ -64,13 +64,13 @@ Parameters loadParameters(const ros::NodeHandle& pnh)
 }
 
 DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh)
-  : nh_(nh)
-  , private_nh_(private_nh)
-  , params_(loadParameters(private_nh))
-  , tf_buffer_(ros::Duration(params_.tf_buffer_duration))
-  , tf_listener_(tf_buffer_)
-  , projector_(params_)
-  , updater_(nh, private_nh, private_nh.getNamespace())
+  : nh_(nh),
+    private_nh_(private_nh),
+    params_(loadParameters(private_nh)),
+    tf_buffer_(ros::Duration(params_.tf_buffer_duration)),
+    tf_listener_(tf_buffer_),
+    projector_(params_),
+    updater_(nh, private_nh, private_nh.getNamespace())
 {
   readParam(private_nh_, "queue_size", queue_size_, "int");
   if (queue_size_ < 1)
@@ -82,9 +82,8 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
                                                                static_cast<std::uint32_t>(queue_size_), nh_);
   tf_filter_->registerCallback([this](const Cloud::ConstPtr& cloud) { process(cloud); });
   tf_filter_->registerFailureCallback(
-      [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
-        transformFailed(cloud, reason);
-      });
+    [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason)
+    { transformFailed(cloud, reason); });
   cloud_sub_.registerCallback([this](const Cloud::ConstPtr& cloud) { cloudArrived(cloud); });
 
   reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<Config>>(private_nh_);
@@ -181,9 +180,10 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
     if (waited > params_.transform_tolerance)
     {
       ++stale_;
-      ROS_WARN_THROTTLE(5.0, "[%s] dropped a cloud that waited %.3f s for its transform %s -> %s (transform_tolerance %.3f s)",
-                        name.c_str(), waited, cloud->header.frame_id.c_str(), params_.reference_frame.c_str(),
-                        params_.transform_tolerance);
+      ROS_WARN_THROTTLE(
+        5.0, "[%s] dropped a cloud that waited %.3f s for its transform %s -> %s (transform_tolerance %.3f s)",
+        name.c_str(), waited, cloud->header.frame_id.c_str(), params_.reference_frame.c_str(),
+        params_.transform_tolerance);
       return;
     }
   }
@@ -195,11 +195,11 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
   layout.row_step = cloud->row_step;
   layout.is_bigendian = cloud->is_bigendian;
   for (const auto& f : cloud->fields)
-    layout.fields.push_back({ f.name, f.offset, f.datatype, f.count });
+    layout.fields.push_back({f.name, f.offset, f.datatype, f.count});
   CloudView view;
   std::string intensity_note;
   const std::string reason =
-      makeCloudView(layout, cloud->data.data(), cloud->data.size(), params_.intensity_field, view, &intensity_note);
+    makeCloudView(layout, cloud->data.data(), cloud->data.size(), params_.intensity_field, view, &intensity_note);
   if (!reason.empty())
   {
     ++malformed_;
@@ -220,7 +220,7 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
   try
   {
     camera_to_reference = tf2::transformToEigen(
-        tf_buffer_.lookupTransform(params_.reference_frame, cloud->header.frame_id, cloud->header.stamp));
+      tf_buffer_.lookupTransform(params_.reference_frame, cloud->header.frame_id, cloud->header.stamp));
   }
   catch (const tf2::TransformException& e)
   {
@@ -253,7 +253,7 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
     out->is_dense = true;
     out->point_step = 12;
     out->row_step = out->point_step * out->width;
-    const char* names[3] = { "x", "y", "z" };
+    const char* names[3] = {"x", "y", "z"};
     for (std::uint32_t i = 0; i < 3; ++i)
     {
       sensor_msgs::PointField f;
@@ -278,7 +278,8 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
 void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level*/)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  auto write = [&config](const Parameters& p) {
+  auto write = [&config](const Parameters& p)
+  {
     config.floor_height = p.floor_height;
     config.min_height = p.min_height;
     config.max_height = p.max_height;

@@ -25,10 +25,8 @@ void Parameters::validate() const
   require(std::isfinite(angle_min), "angle_min", "must be finite");
   require(std::isfinite(angle_max), "angle_max", "must be finite");
   require(angle_min < angle_max, "angle_min", "must be smaller than angle_max");
-  require(std::isfinite(angle_increment) && angle_increment > 0.0, "angle_increment",
-          "must be a finite value > 0");
-  require((angle_max - angle_min) / angle_increment < 1e6, "angle_increment",
-          "gives more than one million beams");
+  require(std::isfinite(angle_increment) && angle_increment > 0.0, "angle_increment", "must be a finite value > 0");
+  require((angle_max - angle_min) / angle_increment < 1e6, "angle_increment", "gives more than one million beams");
   require(std::isfinite(range_min) && range_min >= 0.0, "range_min", "must be finite and >= 0");
   require(!std::isnan(range_max), "range_max", "must not be NaN");
   require(range_min < range_max, "range_min", "must be smaller than range_max");

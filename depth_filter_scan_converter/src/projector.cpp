@@ -76,7 +76,7 @@ struct Projector::Frame
   float r20, r21, r22, t2;
   float z_lo, z_hi, z_hole, floor_z;
   float r2_min, r2_max;
-  float a_lo, a_hi;  // acceptance limits, with slack
+  float a_lo, a_hi;      // acceptance limits, with slack
   float a_min, inv_inc;  // exact angle_min for the bin formula
   int beams;
   std::uint32_t row_stride, column_stride;
@@ -170,11 +170,11 @@ __attribute__((always_inline)) inline void chunkKernel(const std::uint8_t* p, st
 #else
 #define DFSC_CLONES
 #endif
-#define DFSC_KERNEL(NAME, T, HOLE, STEP)                                                                              \
-  DFSC_CLONES void NAME(const std::uint8_t* p, std::size_t col_step, std::uint32_t xo, std::uint32_t yo,             \
-                        std::uint32_t zo, std::uint32_t n, const Projector::Frame& f, Chunk& c)                       \
-  {                                                                                                                   \
-    chunkKernel<T, HOLE, STEP>(p, col_step, xo, yo, zo, n, f, c);                                                     \
+#define DFSC_KERNEL(NAME, T, HOLE, STEP)                                                                 \
+  DFSC_CLONES void NAME(const std::uint8_t* p, std::size_t col_step, std::uint32_t xo, std::uint32_t yo, \
+                        std::uint32_t zo, std::uint32_t n, const Projector::Frame& f, Chunk& c)          \
+  {                                                                                                      \
+    chunkKernel<T, HOLE, STEP>(p, col_step, xo, yo, zo, n, f, c);                                        \
   }
 DFSC_KERNEL(kernelFloat, float, false, 0)
 DFSC_KERNEL(kernelFloatHole, float, true, 0)
@@ -226,8 +226,7 @@ void Projector::run(const CloudView& v, const Frame& f, std::vector<float>* kept
     for (std::uint32_t c0 = 0; c0 < v.width; c0 += kChunk * f.column_stride)
     {
       const std::uint32_t n = std::min(kChunk, (v.width - c0 + f.column_stride - 1) / f.column_stride);
-      kernel(row + static_cast<std::size_t>(c0) * v.point_step, col_step, v.x_offset, v.y_offset,
-             v.z_offset, n, f, c);
+      kernel(row + static_cast<std::size_t>(c0) * v.point_step, col_step, v.x_offset, v.y_offset, v.z_offset, n, f, c);
       for (std::uint32_t i = 0; i < n; ++i)
       {
         const std::int32_t b = c.bins[i];
@@ -303,20 +302,19 @@ void Projector::project(const CloudView& cloud, const Eigen::Isometry3d& camera_
   const bool hole = p.hole_detection && t.z() > p.floor_height;
   if (cloud.size() > 0 && cloud.data)
   {
-    const Frame& g = f;
     if (cloud.xyz_type == FieldType::Float64)
     {
       if (hole)
-        dispatchOutputs<double, true>(cloud, g, want_index, kept_points);
+        dispatchOutputs<double, true>(cloud, f, want_index, kept_points);
       else
-        dispatchOutputs<double, false>(cloud, g, want_index, kept_points);
+        dispatchOutputs<double, false>(cloud, f, want_index, kept_points);
     }
     else
     {
       if (hole)
-        dispatchOutputs<float, true>(cloud, g, want_index, kept_points);
+        dispatchOutputs<float, true>(cloud, f, want_index, kept_points);
       else
-        dispatchOutputs<float, false>(cloud, g, want_index, kept_points);
+        dispatchOutputs<float, false>(cloud, f, want_index, kept_points);
     }
   }
 

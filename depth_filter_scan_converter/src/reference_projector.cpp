@@ -22,7 +22,8 @@ void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isom
   {
     for (std::uint32_t c = 0; c < v.width; c += p.column_stride)
     {
-      const std::uint8_t* pt = v.data + static_cast<std::size_t>(r) * v.row_step + static_cast<std::size_t>(c) * v.point_step;
+      const std::uint8_t* pt =
+        v.data + static_cast<std::size_t>(r) * v.row_step + static_cast<std::size_t>(c) * v.point_step;
       const Eigen::Vector3d cam(readField(pt + v.x_offset, v.xyz_type), readField(pt + v.y_offset, v.xyz_type),
                                 readField(pt + v.z_offset, v.xyz_type));
       Eigen::Vector3d q = T * cam;

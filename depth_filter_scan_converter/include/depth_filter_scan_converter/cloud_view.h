@@ -67,7 +67,6 @@ struct CloudLayout
 /// A missing or unusable `intensity_field` is not an error: view.has_intensity stays false
 /// and `intensity_note` (if given) says why.
 std::string makeCloudView(const CloudLayout& layout, const std::uint8_t* data, std::size_t data_size,
-                          const std::string& intensity_field, CloudView& view,
-                          std::string* intensity_note = nullptr);
+                          const std::string& intensity_field, CloudView& view, std::string* intensity_note = nullptr);
 
 }  // namespace depth_filter_scan_converter

@@ -12,24 +12,24 @@ namespace depth_filter_scan_converter
 struct Parameters
 {
   std::string reference_frame = "base_link";  ///< frame of the constraints and of the scan (z up)
-  double floor_height = 0.0;                   ///< z of the floor in reference_frame
-  double min_height = 0.05;                    ///< band bottom above the floor
-  double max_height = 1.0;                     ///< band top above the floor
-  double angle_min = -M_PI;                    ///< first beam, around reference z
-  double angle_max = M_PI;                     ///< last beam
-  double angle_increment = M_PI / 720.0;       ///< beam spacing
-  double range_min = 0.0;                      ///< planar distance limits from the frame origin
+  double floor_height = 0.0;                  ///< z of the floor in reference_frame
+  double min_height = 0.05;                   ///< band bottom above the floor
+  double max_height = 1.0;                    ///< band top above the floor
+  double angle_min = -M_PI;                   ///< first beam, around reference z
+  double angle_max = M_PI;                    ///< last beam
+  double angle_increment = M_PI / 720.0;      ///< beam spacing
+  double range_min = 0.0;                     ///< planar distance limits from the frame origin
   double range_max = 10.0;
-  bool hole_detection = false;                 ///< points far below the floor become obstacles
-  double hole_depth = 0.05;                    ///< how far below the floor a point is a hole
-  double transform_tolerance = 0.1;            ///< how long a cloud may wait for its transform
-  int row_stride = 1;                          ///< take every n-th row of an organized cloud
-  int column_stride = 1;                       ///< take every n-th column
-  bool use_inf = true;                         ///< no return is +Inf (REP 117) ...
-  double inf_epsilon = 1.0;                    ///< ... or range_max + inf_epsilon
-  std::string intensity_field;                 ///< empty: no intensities in the scan
-  bool publish_filtered_cloud = false;         ///< publish the kept points (for rviz)
-  double tf_buffer_duration = 10.0;            ///< length of the tf buffer
+  bool hole_detection = false;          ///< points far below the floor become obstacles
+  double hole_depth = 0.05;             ///< how far below the floor a point is a hole
+  double transform_tolerance = 0.1;     ///< how long a cloud may wait for its transform
+  int row_stride = 1;                   ///< take every n-th row of an organized cloud
+  int column_stride = 1;                ///< take every n-th column
+  bool use_inf = true;                  ///< no return is +Inf (REP 117) ...
+  double inf_epsilon = 1.0;             ///< ... or range_max + inf_epsilon
+  std::string intensity_field;          ///< empty: no intensities in the scan
+  bool publish_filtered_cloud = false;  ///< publish the kept points (for rviz)
+  double tf_buffer_duration = 10.0;     ///< length of the tf buffer
 
   /// Throws std::invalid_argument naming the first bad parameter and why.
   void validate() const;
