@@ -180,11 +180,13 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
   const Eigen::Isometry3d robot_T_output = output_T_robot.inverse(Eigen::Isometry);
   // Robot motion between a beam's time t and t_out, in the robot (odometry child) frame
   // at t_out: P(t_out)^-1 * P(t). It is conjugated into the output frame around the
-  // sensor's mount: output_T_robot * motion * robot_T_output * output_T_sensor.
-  auto motion_to = [&](double t) {
+  // sensor's mount: output_T_robot * P(t_out)^-1 * P(t) * robot_T_output * output_T_sensor,
+  // computed as left * P(t) * right with the constant parts multiplied once.
+  const Eigen::Isometry3d left = output_T_robot * out_T_odom;
+  auto sensor_at = [&](double t, const Eigen::Isometry3d& right) {
     Pose p;
     odom->poseAt(t, p);
-    return Eigen::Isometry3d(out_T_odom * p.toIsometry());
+    return planarPart(left * p.toIsometry() * right);
   };
 
   for (std::size_t s = 0; s < n_src; ++s)
@@ -210,7 +212,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
       {
         const std::size_t b = std::min(g * kDeskewGroup, n - 1);
         const double t = scan.stamp + static_cast<double>(b) * scan.time_increment;
-        group_transforms_[g] = planarPart(output_T_robot * motion_to(t) * right);
+        group_transforms_[g] = sensor_at(t, right);
       }
       addScan<true>(s, in, group_transforms_.data(), kDeskewGroup, with_intensity);
     }
@@ -218,9 +220,8 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     {
       if (group_transforms_.empty())
         group_transforms_.resize(1);
-      group_transforms_[0] = planarPart(
-          compensate ? Eigen::Isometry3d(output_T_robot * motion_to(scan.stamp) * robot_T_output * in.output_T_sensor) :
-                       in.output_T_sensor);
+      group_transforms_[0] = compensate ? sensor_at(scan.stamp, robot_T_output * in.output_T_sensor) :
+                                          planarPart(in.output_T_sensor);
       addScan<false>(s, in, group_transforms_.data(), n, with_intensity);
     }
   }
