@@ -5,14 +5,17 @@ A camera on a servo, 0.8 m above base_link (the floor is base_link's z = 0), loo
 a wall 2.0 m ahead and a box. For every cloud the test broadcasts a new tilt (pitch 10, 25,
 40, 15 and 30 degrees down), then publishes the cloud the camera sees with that tilt (ray cast
 here), and checks the scan: every beam equals the expected scan (brute force in this file),
-every obstacle lies on the wall or on the box, and the floor never shows up. A malformed cloud
-in the middle must not kill the converter: the next good cloud still gives its scan.
+every obstacle lies on the wall or on the box, the floor never shows up, and the intensities
+are those of the chosen points. A malformed cloud in the middle must not kill the converter:
+the next good cloud still gives its scan. The subscription to cloud_in is lazy: none before the
+test listens to the outputs, none after it stops listening.
 """
 import math
 import threading
 import unittest
 
 import numpy as np
+import rosnode
 import rospy
 import rostest
 import tf2_ros
@@ -27,6 +30,7 @@ WIDTH, HEIGHT, HFOV = 160, 120, math.radians(60.0)
 BAND = (0.05, 1.0)
 ANGLE_MIN, ANGLE_MAX, ANGLE_INC = -math.pi, math.pi, math.pi / 720
 PITCHES_DEG = [10.0, 25.0, 40.0, 15.0, 30.0]
+BOX_INTENSITY, OTHER_INTENSITY = 7.0, 3.0
 
 
 def camera_pose(pitch):
@@ -53,15 +57,18 @@ def render(pitch):
         t_far = np.nanmin(np.maximum(t0, t1), axis=-1)
         t_box = np.where((t_near <= t_far) & (t_near > 0), t_near, np.inf)
     t = np.minimum(np.minimum(t_floor, t_wall), t_box)
-    pts = (d_cam * t[..., None]).astype(np.float32)
-    pts[~np.isfinite(t)] = np.nan
+    pts = np.empty(t.shape + (4,), dtype=np.float32)
+    pts[..., :3] = d_cam * t[..., None]
+    pts[~np.isfinite(t), :3] = np.nan
+    # Fourth channel, the "intensity" field: the box reflects 7, everything else 3.
+    pts[..., 3] = np.where(t == t_box, BOX_INTENSITY, OTHER_INTENSITY)
     return pts
 
 
 def expected_scan(points, pitch):
     """Brute force: transform, band, planar range, nearest beam, minimum."""
     rot, origin = camera_pose(pitch)
-    q = points.reshape(-1, 3).astype(np.float64) @ rot.T + origin
+    q = points[..., :3].reshape(-1, 3).astype(np.float64) @ rot.T + origin
     q = q[np.isfinite(q).all(axis=1)]
     q = q[(q[:, 2] >= BAND[0]) & (q[:, 2] <= BAND[1])]
     r = np.hypot(q[:, 0], q[:, 1])
@@ -78,10 +85,11 @@ def cloud_message(points, stamp, frame):
     msg.header.stamp = stamp
     msg.header.frame_id = frame
     msg.height, msg.width = points.shape[0], points.shape[1]
-    msg.fields = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1) for i, n in enumerate("xyz")]
+    names = ("x", "y", "z", "intensity")
+    msg.fields = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1) for i, n in enumerate(names)]
     msg.is_bigendian = False
-    msg.point_step = 12
-    msg.row_step = 12 * msg.width
+    msg.point_step = 16
+    msg.row_step = 16 * msg.width
     msg.is_dense = False
     msg.data = np.ascontiguousarray(points, dtype="<f4").tobytes()
     return msg
@@ -94,10 +102,16 @@ class ConverterTest(unittest.TestCase):
         self.filtered = {}
         self.cloud_pub = rospy.Publisher("cloud_in", PointCloud2, queue_size=5)
         self.tf_pub = tf2_ros.TransformBroadcaster()
+        # Lazy: while nobody listens to the outputs, the converter does not subscribe to cloud_in.
+        deadline = rospy.Time.now() + rospy.Duration(30.0)
+        while "/converter" not in rosnode.get_node_names() and not rospy.is_shutdown():
+            self.assertLess(rospy.Time.now(), deadline, "the converter never started")
+            rospy.sleep(0.1)
+        rospy.sleep(1.0)
+        self.assertEqual(self.cloud_pub.get_num_connections(), 0, "subscribed to cloud_in with nobody listening")
         # Subscribing to the outputs is what makes the lazy converter subscribe to cloud_in.
         self.scan_sub = rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=20)
         self.cloud_sub = rospy.Subscriber("filtered_cloud", PointCloud2, self.on_filtered, queue_size=20)
-        deadline = rospy.Time.now() + rospy.Duration(30.0)
         while self.cloud_pub.get_num_connections() == 0 and not rospy.is_shutdown():
             self.assertLess(rospy.Time.now(), deadline, "the converter never subscribed to cloud_in")
             rospy.sleep(0.05)
@@ -160,6 +174,13 @@ class ConverterTest(unittest.TestCase):
         on_box = (x > BOX_LO[0] - 0.02) & (x < BOX_HI[0] + 0.02) & (y > BOX_LO[1] - 0.02) & (y < BOX_HI[1] + 0.02)
         self.assertTrue(np.all(on_wall | on_box), f"pitch {math.degrees(pitch):.0f}: obstacle off the wall and box")
         self.assertTrue(on_box.any(), "the box should be seen")
+        # Intensities (intensity_field: intensity): those of the chosen points.
+        intensities = np.array(scan.intensities)
+        self.assertEqual(len(intensities), n)
+        self.assertTrue(np.all(intensities[~hit] == 0.0))
+        inside_box = on_box & ~on_wall
+        self.assertTrue(np.all(intensities[hit][inside_box] == BOX_INTENSITY))
+        self.assertTrue(np.all(intensities[hit][on_wall & ~on_box] == OTHER_INTENSITY))
 
     def test_servo_tilt_and_malformed_cloud(self):
         stamp = rospy.Time.now()
@@ -183,7 +204,7 @@ class ConverterTest(unittest.TestCase):
                 bad_stamp = stamp + rospy.Duration(0.01)
                 self.send_tilt(pitch, bad_stamp)
                 bad = cloud_message(points, bad_stamp, "camera_optical")
-                bad.data = bad.data[:-12]
+                bad.data = bad.data[:-16]
                 self.cloud_pub.publish(bad)
                 # And one without a z field.
                 bad2_stamp = stamp + rospy.Duration(0.02)
@@ -194,6 +215,14 @@ class ConverterTest(unittest.TestCase):
                 self.assertIsNone(self.wait_for(self.scans, bad_stamp, timeout=0.5), "malformed cloud gave a scan")
                 self.assertIsNone(self.wait_for(self.scans, bad2_stamp, timeout=0.2), "cloud without z gave a scan")
                 stamp = bad2_stamp
+
+        # Nobody listens any more: the converter lets go of cloud_in.
+        self.scan_sub.unregister()
+        self.cloud_sub.unregister()
+        deadline = rospy.Time.now() + rospy.Duration(10.0)
+        while self.cloud_pub.get_num_connections() > 0 and rospy.Time.now() < deadline:
+            rospy.sleep(0.05)
+        self.assertEqual(self.cloud_pub.get_num_connections(), 0, "still subscribed to cloud_in with nobody listening")
 
 
 if __name__ == "__main__":
