@@ -204,6 +204,11 @@ class MergerTest(unittest.TestCase):
             others = self.source_status('lidar_front_left')
         self.assertGreaterEqual(int(values['scans left out by timeout']), 1)
         self.assertEqual(others.level, DiagnosticStatus.OK)
+        lidar = {v.key: v.value for v in others.values}
+        self.assertGreater(float(lidar['rate (Hz)']), 4.0)  # published at 8 Hz
+        self.assertLess(float(lidar['rate (Hz)']), 12.0)
+        self.assertLess(float(lidar['age of last scan (s)']), 0.5)
+        self.assertEqual(int(lidar['transform failures']), 0)
 
         self.stopped.discard('camera_rear')
 
