@@ -155,15 +155,23 @@ bool DepthFilterScanConverter::takeArrival(const Cloud* cloud, ros::Time& arriva
 void DepthFilterScanConverter::transformFailed(const Cloud::ConstPtr& cloud,
                                                tf2_ros::filter_failure_reasons::FilterFailureReason reason)
 {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++tf_failures_;
-    ros::Time arrival;
-    takeArrival(cloud.get(), arrival);
-  }
-  ROS_WARN_THROTTLE(5.0, "[%s] dropped a cloud: no transform %s -> %s at %.3f: %s", private_nh_.getNamespace().c_str(),
-                    cloud->header.frame_id.c_str(), params_.reference_frame.c_str(), cloud->header.stamp.toSec(),
-                    failureText(reason));
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++tf_failures_;
+  ros::Time arrival;
+  takeArrival(cloud.get(), arrival);
+  if (due(warned_tf_))
+    ROS_WARN("[%s] dropped a cloud: no transform %s -> %s at %.3f: %s", private_nh_.getNamespace().c_str(),
+             cloud->header.frame_id.c_str(), params_.reference_frame.c_str(), cloud->header.stamp.toSec(),
+             failureText(reason));
+}
+
+bool DepthFilterScanConverter::due(ros::WallTime& last, double period)
+{
+  const ros::WallTime now = ros::WallTime::now();
+  if (!last.isZero() && (now - last).toSec() < period)
+    return false;
+  last = now;
+  return true;
 }
 
 void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
@@ -180,10 +188,10 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
     if (waited > params_.transform_tolerance)
     {
       ++stale_;
-      ROS_WARN_THROTTLE(
-        5.0, "[%s] dropped a cloud that waited %.3f s for its transform %s -> %s (transform_tolerance %.3f s)",
-        name.c_str(), waited, cloud->header.frame_id.c_str(), params_.reference_frame.c_str(),
-        params_.transform_tolerance);
+      if (due(warned_late_))
+        ROS_WARN("[%s] dropped a cloud that waited %.3f s for its transform %s -> %s (transform_tolerance %.3f s)",
+                 name.c_str(), waited, cloud->header.frame_id.c_str(), params_.reference_frame.c_str(),
+                 params_.transform_tolerance);
       return;
     }
   }
@@ -205,16 +213,15 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
     ++malformed_;
     // A new kind of defect is reported at once, the same one again at most every 5 s.
     if (reason != last_malformed_reason_)
+      warned_malformed_ = ros::WallTime();
+    last_malformed_reason_ = reason;
+    if (due(warned_malformed_))
       ROS_WARN("[%s] dropped a malformed cloud (frame '%s'): %s", name.c_str(), cloud->header.frame_id.c_str(),
                reason.c_str());
-    else
-      ROS_WARN_THROTTLE(5.0, "[%s] dropped a malformed cloud (frame '%s'): %s", name.c_str(),
-                        cloud->header.frame_id.c_str(), reason.c_str());
-    last_malformed_reason_ = reason;
     return;
   }
-  if (!intensity_note.empty())
-    ROS_WARN_THROTTLE(30.0, "[%s] %s: the scan has no intensities", name.c_str(), intensity_note.c_str());
+  if (!intensity_note.empty() && due(warned_intensity_, 30.0))
+    ROS_WARN("[%s] %s: the scan has no intensities", name.c_str(), intensity_note.c_str());
 
   Eigen::Isometry3d camera_to_reference;
   try
@@ -225,7 +232,8 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
   catch (const tf2::TransformException& e)
   {
     ++tf_failures_;
-    ROS_WARN_THROTTLE(5.0, "[%s] dropped a cloud: %s", name.c_str(), e.what());
+    if (due(warned_tf_))
+      ROS_WARN("[%s] dropped a cloud: %s", name.c_str(), e.what());
     return;
   }
 

@@ -51,6 +51,9 @@ private:
   void reconfigure(Config& config, std::uint32_t level);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   bool takeArrival(const Cloud* cloud, ros::Time& arrival);
+  /// Throttling per converter (ROS_WARN_THROTTLE keeps one timer per call site, shared by every
+  /// converter in a manager: one camera's trouble would hide another's).
+  static bool due(ros::WallTime& last, double period = 5.0);
 
   ros::NodeHandle nh_, private_nh_;
   Parameters params_;
@@ -80,6 +83,7 @@ private:
   ros::WallTime last_report_;
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0;
   std::string last_malformed_reason_;
+  ros::WallTime warned_tf_, warned_late_, warned_malformed_, warned_intensity_;
 };
 
 }  // namespace depth_filter_scan_converter
