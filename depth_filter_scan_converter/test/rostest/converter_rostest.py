@@ -162,9 +162,11 @@ class ConverterTest(unittest.TestCase):
         finite = np.isfinite(expected)
         self.assertGreater(finite.sum(), 50, "the scene should show the wall and the box")
         # Equal beam by beam; a point within micro-radians of a beam border may go to the
-        # neighbour (float32 and the fast atan2 in the converter), so allow 1% of such beams.
-        same = (np.isinf(ranges) & ~finite) | (np.abs(ranges - expected) <= 1e-4 * np.maximum(1.0, expected))
-        self.assertGreaterEqual(same.mean(), 0.99, f"pitch {math.degrees(pitch):.0f}: {np.sum(~same)} beams differ")
+        # neighbour (float32 and the fast atan2 in the converter): at most 5 such beams of 1441
+        # (0 to 2 seen with these scenes).
+        with np.errstate(invalid="ignore"):
+            same = (np.isinf(ranges) & ~finite) | (np.abs(ranges - expected) <= 1e-4 * np.maximum(1.0, expected))
+        self.assertLessEqual(np.sum(~same), 5, f"pitch {math.degrees(pitch):.0f}: {np.sum(~same)} beams differ")
         # Every obstacle is on the wall or on the box: the floor never shows up.
         a = ANGLE_MIN + np.arange(n) * ANGLE_INC
         hit = np.isfinite(ranges)
