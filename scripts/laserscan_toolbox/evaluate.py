@@ -338,6 +338,20 @@ def _coverage(scans):
     return float(np.mean(metrics.is_return(r)))
 
 
+def bag_scans(path, topics):
+    """LaserScans of the bag (the pipeline's inputs) in the recorder's layout."""
+    import rosbag
+    out = {t: {"scans": []} for t in topics}
+    with rosbag.Bag(path) as bag:
+        for topic, m, _ in bag.read_messages(topics=list(topics)):
+            out[topic]["scans"].append({
+                "stamp": m.header.stamp.to_sec(), "frame": m.header.frame_id,
+                "angle_min": m.angle_min, "angle_max": m.angle_max,
+                "angle_increment": m.angle_increment, "range_min": m.range_min,
+                "range_max": m.range_max, "ranges": np.asarray(m.ranges, np.float32)})
+    return out
+
+
 def band_from_configs(config_dir):
     """(floor_height, min_height, max_height) of the converters in ``config_dir``."""
     import glob
@@ -508,6 +522,16 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
         results["band"] = list(band)
         results["accuracy"], examples = ground_truth_stats(
             run, info, scenario, band, tol=tol, beam_window=beam_window, max_scans=max_scans)
+        # the sources that come straight from the bag (lidars), judged the same way
+        inputs = [t for t, v in info["topics"].items()
+                  if v["type"] == "sensor_msgs/LaserScan" and t not in run["records"]]
+        if inputs:
+            acc_in, _ = ground_truth_stats({"records": bag_scans(bag, inputs)}, info, scenario,
+                                           band, tol=tol, beam_window=beam_window,
+                                           max_scans=max_scans)
+            for t, a in acc_in.items():
+                a["input"] = True
+                results["accuracy"][t] = a
         if output and map_topics:
             results["mapping"] = run_mapping(run, info, scenario, results, map_topics,
                                              os.path.join(output, "maps"), log=log)

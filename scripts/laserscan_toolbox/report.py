@@ -51,7 +51,8 @@ def accuracy_table(results):
         if "skipped" in a and isinstance(a["skipped"], str):
             rows.append([t, "skipped: " + a["skipped"]] + [""] * 7)
             continue
-        rows.append([t, a["scans"], "%.2f..%.2f" % tuple(a["z_band"]),
+        rows.append([t + (" (bag input)" if a.get("input") else ""), a["scans"],
+                     "%.2f..%.2f" % tuple(a["z_band"]),
                      fmt(a["median_error"], 100, 2), fmt(a["p95_error"], 100, 1),
                      fmt(a["false_rate"], 100, 2), fmt(a["missed_rate"], 100, 1),
                      fmt(a["coverage"], 100), "%d/%d" % (a["field_of_view_beams"],
