@@ -182,11 +182,22 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
   // at t_out: P(t_out)^-1 * P(t). It is conjugated into the output frame around the
   // sensor's mount: output_T_robot * P(t_out)^-1 * P(t) * robot_T_output * output_T_sensor,
   // computed as left * P(t) * right with the constant parts multiplied once.
-  const Eigen::Isometry3d left = output_T_robot * out_T_odom;
+  // The usual case (odometry child frame == output frame) skips the identity products.
+  const bool robot_is_output = output_T_robot.matrix().isIdentity(0.0);
+  const Eigen::Isometry3d left = robot_is_output ? out_T_odom : Eigen::Isometry3d(output_T_robot * out_T_odom);
   auto sensor_at = [&](double t, const Eigen::Isometry3d& right) {
     Pose p;
     odom->poseAt(t, p);
-    return planarPart(left * p.toIsometry() * right);
+    // Only the first two rows of left * P(t) * right are needed (planarPart).
+    const Eigen::Matrix<double, 2, 4> rows = left.matrix().topRows<2>() * p.toIsometry().matrix();
+    const Eigen::Matrix<double, 2, 4> m = rows * right.matrix();
+    Eigen::Matrix<float, 2, 3> out;
+    out << static_cast<float>(m(0, 0)), static_cast<float>(m(0, 1)), static_cast<float>(m(0, 3)),
+        static_cast<float>(m(1, 0)), static_cast<float>(m(1, 1)), static_cast<float>(m(1, 3));
+    return out;
+  };
+  auto mount = [&](const Eigen::Isometry3d& output_T_sensor) {
+    return robot_is_output ? output_T_sensor : Eigen::Isometry3d(robot_T_output * output_T_sensor);
   };
 
   for (std::size_t s = 0; s < n_src; ++s)
@@ -204,7 +215,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
       // motion from the odometry) is computed at the borders of every kDeskewGroup beams;
       // between two borders the planar transform is interpolated per beam, whose error is
       // second order in the small rotation of one group.
-      const Eigen::Isometry3d right = robot_T_output * in.output_T_sensor;
+      const Eigen::Isometry3d right = mount(in.output_T_sensor);
       const std::size_t groups = (n - 1 + kDeskewGroup - 1) / kDeskewGroup;
       if (group_transforms_.size() < groups + 1)
         group_transforms_.resize(groups + 1);
@@ -220,8 +231,8 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     {
       if (group_transforms_.empty())
         group_transforms_.resize(1);
-      group_transforms_[0] = compensate ? sensor_at(scan.stamp, robot_T_output * in.output_T_sensor) :
-                                          planarPart(in.output_T_sensor);
+      group_transforms_[0] =
+          compensate ? sensor_at(scan.stamp, mount(in.output_T_sensor)) : planarPart(in.output_T_sensor);
       addScan<false>(s, in, group_transforms_.data(), n, with_intensity);
     }
   }

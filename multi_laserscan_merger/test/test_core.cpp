@@ -523,6 +523,14 @@ TEST(MotionCompensation, HeadingNinetyDegreesDrivingForward)
   core.merge({ input(s.view(0.05), pose(0.3, 0.0, 0.0, 0, 0, 0)) }, 0.15, &odom, Eigen::Isometry3d::Identity(), out,
              st);
   EXPECT_NEAR(out.ranges[binOf(0.0)], 2.2f, 1e-4);
+
+  // An output frame that is not the odometry's child frame: the motion (in the robot frame)
+  // is conjugated into it. Output frame = robot frame turned by +90 degrees and shifted.
+  const Eigen::Isometry3d output_T_robot = pose(0.5, 0.0, 0.0, 0, 0, -kPi / 2);
+  // Sensor at the robot's origin, looking along the robot's x axis.
+  core.merge({ input(s.view(0.05), output_T_robot) }, 0.15, &odom, output_T_robot, out, st);
+  // The obstacle ahead is at robot (1.9, 0) at t_out, i.e. output (0.5, -1.9).
+  EXPECT_NEAR(out.ranges[binOf(std::atan2(-1.9, 0.5))], std::hypot(0.5, 1.9), 1e-4);
 }
 
 TEST(MotionCompensation, TimeoutLeavesOldScansOut)
