@@ -90,7 +90,7 @@ def bin_of(out, a):
     return np.where(k < n, k, -1)
 
 
-def reference_merge(out, sources, scans, t_out, odom=None):
+def reference_merge(out, sources, scans, t_out, odom=None, output_T_robot=None):
     """Returns the merged ranges (before output limits: finite, +inf = nothing, nan = invalid only),
     for each source (bins, ranges) of its valid points, and the bins marked by invalid beams."""
     n, n_circle = output_bins(out)
@@ -117,7 +117,8 @@ def reference_merge(out, sources, scans, t_out, odom=None):
         for b in np.nonzero(valid | invalid)[0]:
             t = scan['transform']
             if odom is not None:
-                t = p_out_inv @ odom.pose(t_beam[b]) @ t
+                o = np.eye(4) if output_T_robot is None else output_T_robot
+                t = o @ p_out_inv @ odom.pose(t_beam[b]) @ np.linalg.inv(o) @ t
             if valid[b]:
                 p = t @ np.array([r[b] * math.cos(a[b]), r[b] * math.sin(a[b]), 0.0, 1.0])
                 k = int(bin_of(out, math.atan2(p[1], p[0])))

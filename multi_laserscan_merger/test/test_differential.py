@@ -119,8 +119,11 @@ def test_core_matches_numpy_reference(seed):
     for t, p, q in entries:
         assert odom.add(t, p, q) == 'added'
     merger = mlc.Merger(out, sources)
-    res = merger.merge(scans, t_out, odom)
-    expected, points, nan_mark = ref.reference_merge(out, sources, scans, t_out, odom_ref)
+    # Every third case: the output frame is not the odometry's child frame.
+    o = ref.yaw_matrix(rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3), 0.1, 0.0, 0.0,
+                       rng.uniform(-math.pi, math.pi)) if seed % 3 == 0 else np.eye(4)
+    res = merger.merge(scans, t_out, odom, o)
+    expected, points, nan_mark = ref.reference_merge(out, sources, scans, t_out, odom_ref, o)
     expected = ref.apply_output_limits(out, expected)
     got = res['ranges'].astype(np.float64)
     assert len(got) == len(expected) == merger.beam_count
