@@ -14,7 +14,6 @@ namespace
 constexpr float kFInf = std::numeric_limits<float>::infinity();
 constexpr float kFNaN = std::numeric_limits<float>::quiet_NaN();
 
-
 // The beams lie in the sensor's x-y plane (z = 0), and the output keeps only x and y:
 // the two rows and three useful columns of the 3D transform are all the hot loop needs.
 // z of the transformed point is dropped (projection on the output plane), so a tilted
