@@ -11,7 +11,7 @@
 #include <string>
 
 #include "../test/cloud_fixtures.h"
-#include "../test/pcd_reader.h"
+#include "../test/pcl_cloud.h"
 #include "depth_filter_scan_converter/projector.h"
 
 namespace dfsc = depth_filter_scan_converter;

@@ -16,7 +16,7 @@
 #include "depth_filter_scan_converter/parameters.h"
 #include "depth_filter_scan_converter/projector.h"
 #include "cloud_fixtures.h"
-#include "pcd_reader.h"
+#include "pcl_cloud.h"
 
 namespace dfsc = depth_filter_scan_converter;
 
