@@ -23,11 +23,16 @@ inline std::int32_t bitsOf(float f)
 }
 }  // namespace
 
-// AVX-512, AVX2+FMA and baseline versions; the CPU picks at load time.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) int
-projectBeams(std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
-             const float* __restrict sg, const float* __restrict m, float rmin, float rmax, float amin, float inv_inc,
-             int wrap, unsigned n_out, int* __restrict kg, float* __restrict og)
+namespace
+{
+// The loop, with or without the per-beam step of the transform (deskew), so that the usual
+// case does not pay for the interpolation.
+template <bool kStep>
+inline __attribute__((always_inline)) int projectLoop(std::size_t len, const float* __restrict rg,
+                                                      const float* __restrict fg, const float* __restrict cg,
+                                                      const float* __restrict sg, const float* __restrict m,
+                                                      float rmin, float rmax, float amin, float inv_inc, int wrap,
+                                                      unsigned n_out, int* __restrict kg, float* __restrict og)
 {
   constexpr float kTwoPi = 6.28318530717958647692f;
   constexpr std::int32_t kInfBits = 0x7f800000;
@@ -49,9 +54,13 @@ projectBeams(std::size_t len, const float* __restrict rg, const float* __restric
     const int invalid = in_view & ((b < min_bits) | (b > kInfBits));  // below range_min, -Inf, NaN
     special += invalid;
     const float r = ok ? rg[j] : 1.0f;
-    const float fj = static_cast<float>(j);
-    const float a00 = m00 + fj * d00, a01 = m01 + fj * d01, a02 = m02 + fj * d02;
-    const float a10 = m10 + fj * d10, a11 = m11 + fj * d11, a12 = m12 + fj * d12;
+    float a00 = m00, a01 = m01, a02 = m02, a10 = m10, a11 = m11, a12 = m12;
+    if (kStep)
+    {
+      const float fj = static_cast<float>(j);
+      a00 += fj * d00, a01 += fj * d01, a02 += fj * d02;
+      a10 += fj * d10, a11 += fj * d11, a12 += fj * d12;
+    }
     const float x = r * (a00 * cg[j] + a01 * sg[j]) + a02;
     const float y = r * (a10 * cg[j] + a11 * sg[j]) + a12;
     float rel = fastAtan2(y, x) - amin;
@@ -64,6 +73,18 @@ projectBeams(std::size_t len, const float* __restrict rg, const float* __restric
     kg[j] = (ok & (static_cast<unsigned>(k) < n_out)) ? k : skip;
   }
   return special;
+}
+}  // namespace
+
+// AVX-512, AVX2+FMA and baseline versions; the CPU picks at load time.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) int
+projectBeams(std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
+             const float* __restrict sg, const float* __restrict m, float rmin, float rmax, float amin, float inv_inc,
+             int wrap, unsigned n_out, int* __restrict kg, float* __restrict og)
+{
+  const bool step = m[6] != 0.0f || m[7] != 0.0f || m[8] != 0.0f || m[9] != 0.0f || m[10] != 0.0f || m[11] != 0.0f;
+  return step ? projectLoop<true>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og) :
+                projectLoop<false>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og);
 }
 
 }  // namespace multi_laserscan_merger
