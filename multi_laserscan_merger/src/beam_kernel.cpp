@@ -27,7 +27,7 @@ namespace
 {
 // The loop, with or without the per-beam step of the transform (deskew), so that the usual
 // case does not pay for the interpolation.
-template <bool kStep>
+template <bool kStep, bool kAllInView>
 inline __attribute__((always_inline)) int projectLoop(std::size_t len, const float* __restrict rg,
                                                       const float* __restrict fg, const float* __restrict cg,
                                                       const float* __restrict sg, const float* __restrict m,
@@ -49,7 +49,7 @@ inline __attribute__((always_inline)) int projectLoop(std::size_t len, const flo
     std::int32_t b;
     std::memcpy(&b, rg + j, sizeof b);
     // Bitwise & on purpose: no short-circuit branches in the vectorised loop.
-    const int in_view = fg[j] > 0.5f;
+    const int in_view = kAllInView ? 1 : fg[j] > 0.5f;
     const int ok = in_view & (b >= min_bits) & (b <= max_bits);
     const int invalid = in_view & ((b < min_bits) | (b > kInfBits));  // below range_min, -Inf, NaN
     special += invalid;
@@ -83,8 +83,11 @@ projectBeams(std::size_t len, const float* __restrict rg, const float* __restric
              int wrap, unsigned n_out, int* __restrict kg, float* __restrict og)
 {
   const bool step = m[6] != 0.0f || m[7] != 0.0f || m[8] != 0.0f || m[9] != 0.0f || m[10] != 0.0f || m[11] != 0.0f;
-  return step ? projectLoop<true>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og) :
-                projectLoop<false>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og);
+  if (fg == nullptr)
+    return step ? projectLoop<true, true>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og) :
+                  projectLoop<false, true>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og);
+  return step ? projectLoop<true, false>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og) :
+                projectLoop<false, false>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og);
 }
 
 }  // namespace multi_laserscan_merger

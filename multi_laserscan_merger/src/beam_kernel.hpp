@@ -13,7 +13,8 @@ constexpr std::size_t kScratch = 16;
 
 /// Pass 1 of addScan for one group of beams: output bin and planar range of every beam.
 /// m = { m00 m01 m02 m10 m11 m12, and their per-beam steps (deskew; zero otherwise) }: the
-/// planar part of output <- sensor. A beam inside the mask (fov > 0.5) with a range in
+/// planar part of output <- sensor. fov may be nullptr: every beam is inside the mask.
+/// A beam inside the mask (fov > 0.5) with a range in
 /// [rmin, rmax] (finite) gets its bin in [0, n_out) (or a scratch bin when it falls outside the
 /// output's field of view); one holding NaN, -Inf or a range below rmin gets bin n_out;
 /// the others (masked, +Inf, beyond rmax) a scratch bin. Returns the number of bin-n_out beams.

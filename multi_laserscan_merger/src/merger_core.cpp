@@ -137,6 +137,9 @@ void MergerCore::updateCache(std::size_t source, const ScanView& scan)
   c.end_in = c.n;
   while (c.end_in > c.first_in && c.in_fov[c.end_in - 1] == 0.0f)
     --c.end_in;
+  c.span_all_in = std::all_of(c.in_fov.begin() + static_cast<std::ptrdiff_t>(c.first_in),
+                              c.in_fov.begin() + static_cast<std::ptrdiff_t>(c.end_in),
+                              [](float f) { return f > 0.5f; });
 }
 
 void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, const OdometryBuffer* odom,
@@ -317,9 +320,14 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
   const float* cs = c.cos_a.data();
   const float* sn = c.sin_a.data();
 
-  // Pass 1 (vectorised): output bin and range of every beam.
+  // Pass 1 (vectorised): output bin and range of every beam of the mask's span (the others
+  // are never visited); without the mask's table when the whole span is inside it.
+  const float* fov_or_all = c.span_all_in ? nullptr : fov;
   for (std::size_t b0 = 0, g = 0; b0 < n; b0 += group_size, ++g)
   {
+    const std::size_t lo = std::max(b0, c.first_in), hi = std::min(b0 + group_size, c.end_in);
+    if (lo >= hi)
+      continue;
     const Eigen::Matrix<float, 2, 3>& m = transforms[g];
     const float m00 = m(0, 0), m01 = m(0, 1), m02 = m(0, 2);
     const float m10 = m(1, 0), m11 = m(1, 1), m12 = m(1, 2);
@@ -334,10 +342,12 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
         d10 = step(1, 0), d11 = step(1, 1), d12 = step(1, 2);
       }
     }
-    const std::size_t len = std::min(n, b0 + group_size) - b0;
-    const float m_row[12] = { m00, m01, m02, m10, m11, m12, d00, d01, d02, d10, d11, d12 };
-    n_special += projectBeams(len, ranges + b0, fov + b0, cs + b0, sn + b0, m_row, rmin, rmax, amin, inv_inc, wrap,
-                            n_out, kb + b0, rb + b0);
+    // The transform at the first beam handled (lo), and its per-beam step.
+    const float off = static_cast<float>(lo - b0);
+    const float m_row[12] = { m00 + off * d00, m01 + off * d01, m02 + off * d02, m10 + off * d10, m11 + off * d11,
+                              m12 + off * d12, d00, d01, d02, d10, d11, d12 };
+    n_special += projectBeams(hi - lo, ranges + lo, fov_or_all ? fov_or_all + lo : nullptr, cs + lo, sn + lo, m_row,
+                              rmin, rmax, amin, inv_inc, wrap, n_out, kb + lo, rb + lo);
   }
 
   // Pass 2: keep the closest range per bin; a real range also replaces a NaN mark

@@ -115,6 +115,7 @@ private:
     std::size_t n = 0;
     std::vector<float> cos_a, sin_a;
     std::size_t first_in = 0, end_in = 0;  ///< span of beams from the first to the last inside the mask
+    bool span_all_in = false;              ///< every beam of the span is inside the mask
     std::vector<float> in_fov;  ///< 1 inside the source's mask (float: keeps the hot loop vectorisable)
   };
   void updateCache(std::size_t source, const ScanView& scan);
