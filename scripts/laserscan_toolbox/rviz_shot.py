@@ -61,3 +61,38 @@ def image_stats(png, colours=()):
         d = np.abs(img - np.asarray(c, np.int16)[None, None, :]).max(axis=-1)
         stats["counts"][tuple(c)] = int((d <= 40).sum())
     return stats
+
+
+def bag_screenshot(bag, launch_file, config, out_png, start=0.0, play=6.0, launch_args=(),
+                   warmup=8.0, workdir=None):
+    """Plays ``play`` s of ``bag`` (from ``start`` s) through the launch while rviz shows
+    ``config``, and saves a screenshot at the end (for the README and the demo)."""
+    import threading
+    import time
+    from .evaluate import Session
+    from .rosrun import BagPlayer, Launch
+    err = []
+    with Session(workdir=workdir) as session:
+        launch = Launch(launch_file, launch_args,
+                        os.path.join(session.workdir, "shot_roslaunch.log")).start()
+        try:
+            launch.wait_ready(session.master.master)
+            th = threading.Thread(target=lambda: _shot(config, out_png, warmup + play + 1.0, err))
+            th.start()
+            time.sleep(warmup)
+            player = BagPlayer(bag, os.path.join(session.workdir, "shot_play.log"),
+                               extra=["-s", str(start), "-u", str(play)]).start()
+            player.proc.wait(timeout=play + 60)
+            th.join()
+        finally:
+            launch.stop()
+    if err:
+        raise err[0]
+    return out_png
+
+
+def _shot(config, out_png, delay, err):
+    try:
+        screenshot(config, out_png, delay=delay, env=dict(os.environ))
+    except Exception as e:  # reported by the caller's thread
+        err.append(e)
