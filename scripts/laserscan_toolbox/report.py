@@ -223,6 +223,15 @@ def demo_summary(outdir, timing=""):
                 f.write("\n## CPU against depth points (paper Fig. 8)\n\nSee "
                         "[cpu/cpu_experiment.md](cpu/cpu_experiment.md).\n\n"
                         "![cpu against points](cpu/cpu_vs_points.png)\n")
+    report = os.path.join(outdir, "report.md")
+    if os.path.isfile(os.path.join(outdir, "rviz.png")) and os.path.isfile(report):
+        with open(report) as f:
+            text = f.read()
+        if "(rviz.png)" not in text:
+            with open(report, "a") as f:
+                f.write("\n## rviz\n\nconfig/rviz/pipeline.rviz while the scenario plays "
+                        "(merged scan red, lidars green, cameras blue/violet).\n\n"
+                        "![rviz](rviz.png)\n")
     return "\n".join(lines)
 
 
