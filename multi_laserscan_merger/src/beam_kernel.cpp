@@ -28,32 +28,39 @@ namespace
 // The loop, with or without the per-beam step of the transform (deskew), so that the usual
 // case does not pay for the interpolation.
 template <bool kStep, bool kAllInView>
-inline __attribute__((always_inline)) int projectLoop(std::size_t len, const float* __restrict rg,
+inline __attribute__((always_inline)) void projectLoop(std::size_t len, const float* __restrict rg,
                                                       const float* __restrict fg, const float* __restrict cg,
                                                       const float* __restrict sg, const float* __restrict m,
-                                                      float rmin, float rmax, float amin, float inv_inc, int wrap,
-                                                      unsigned n_out, int* __restrict kg, float* __restrict og)
+                                                      float rmin, float rmax, int keep_close, float amin,
+                                                      float inv_inc, int wrap, unsigned n_out, int* __restrict kg,
+                                                      float* __restrict og)
 {
   constexpr float kTwoPi = 6.28318530717958647692f;
   constexpr std::int32_t kInfBits = 0x7f800000;
+  constexpr std::int32_t kMinusInfBits = static_cast<std::int32_t>(0xff800000u);
+  // An invalid beam is projected at this range: its direction, whatever the translation.
+  constexpr float kFar = 1e6f;
   // For non-negative floats the order of the bit patterns is the order of the values;
   // negative values (and -0, -Inf, negative NaN) are negative integers, +Inf is kInfBits and
   // every positive NaN is above it.
-  const std::int32_t min_bits = bitsOf(rmin > 0.0f ? rmin : 0.0f);
-  const std::int32_t max_bits = bitsOf(rmax < FLT_MAX ? rmax : FLT_MAX);
+  const float rmin0 = rmin > 0.0f ? rmin : 0.0f;
+  const std::int32_t min_bits = bitsOf(rmin0);
+  const float max_real = 0.5f * FLT_MAX;  // below kInvalidMark
+  const std::int32_t max_bits = bitsOf(rmax < max_real ? rmax : max_real);
   const float m00 = m[0], m01 = m[1], m02 = m[2], m10 = m[3], m11 = m[4], m12 = m[5];
   const float d00 = m[6], d01 = m[7], d02 = m[8], d10 = m[9], d11 = m[10], d12 = m[11];
-  int special = 0;
   for (std::size_t j = 0; j < len; ++j)
   {
     std::int32_t b;
     std::memcpy(&b, rg + j, sizeof b);
     // Bitwise & on purpose: no short-circuit branches in the vectorised loop.
     const int in_view = kAllInView ? 1 : fg[j] > 0.5f;
-    const int ok = in_view & (b >= min_bits) & (b <= max_bits);
-    const int invalid = in_view & ((b < min_bits) | (b > kInfBits));  // below range_min, -Inf, NaN
-    special += invalid;
-    const float r = ok ? rg[j] : 1.0f;
+    const int too_close = in_view & keep_close & (b == kMinusInfBits);  // kept: a reading at range_min
+    const int ok = (in_view & (b >= min_bits) & (b <= max_bits)) | too_close;
+    // Below range_min, NaN, or -Inf not kept.
+    const int invalid = in_view & (too_close ^ 1) & ((b < min_bits) | (b > kInfBits));
+    // Beams neither ok nor invalid go to a scratch bin: their range does not matter.
+    const float r = ok ? (too_close ? rmin0 : rg[j]) : kFar;
     float a00 = m00, a01 = m01, a02 = m02, a10 = m10, a11 = m11, a12 = m12;
     if (kStep)
     {
@@ -68,26 +75,29 @@ inline __attribute__((always_inline)) int projectLoop(std::size_t len, const flo
     rel -= rel >= kTwoPi ? kTwoPi : 0.0f;
     int k = static_cast<int>(rel * inv_inc + 0.5f);
     k -= k >= wrap ? wrap : 0;
-    og[j] = std::sqrt(x * x + y * y);
-    const int skip = invalid ? static_cast<int>(n_out) : static_cast<int>(n_out + 1 + (j & (kScratch - 1)));
-    kg[j] = (ok & (static_cast<unsigned>(k) < n_out)) ? k : skip;
+    const float d = std::sqrt(x * x + y * y);
+    og[j] = ok ? d : kInvalidMark;
+    kg[j] = ((ok | invalid) & (static_cast<unsigned>(k) < n_out)) ? k : static_cast<int>(n_out + (j & (kScratch - 1)));
   }
-  return special;
 }
 }  // namespace
 
 // AVX-512, AVX2+FMA and baseline versions; the CPU picks at load time.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) int
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void
 projectBeams(std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
-             const float* __restrict sg, const float* __restrict m, float rmin, float rmax, float amin, float inv_inc,
-             int wrap, unsigned n_out, int* __restrict kg, float* __restrict og)
+             const float* __restrict sg, const float* __restrict m, float rmin, float rmax, bool keep_too_close,
+             float amin, float inv_inc, int wrap, unsigned n_out, int* __restrict kg, float* __restrict og)
 {
+  const int kc = keep_too_close ? 1 : 0;
   const bool step = m[6] != 0.0f || m[7] != 0.0f || m[8] != 0.0f || m[9] != 0.0f || m[10] != 0.0f || m[11] != 0.0f;
-  if (fg == nullptr)
-    return step ? projectLoop<true, true>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og) :
-                  projectLoop<false, true>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og);
-  return step ? projectLoop<true, false>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og) :
-                projectLoop<false, false>(len, rg, fg, cg, sg, m, rmin, rmax, amin, inv_inc, wrap, n_out, kg, og);
+  if (fg == nullptr && step)
+    projectLoop<true, true>(len, rg, fg, cg, sg, m, rmin, rmax, kc, amin, inv_inc, wrap, n_out, kg, og);
+  else if (fg == nullptr)
+    projectLoop<false, true>(len, rg, fg, cg, sg, m, rmin, rmax, kc, amin, inv_inc, wrap, n_out, kg, og);
+  else if (step)
+    projectLoop<true, false>(len, rg, fg, cg, sg, m, rmin, rmax, kc, amin, inv_inc, wrap, n_out, kg, og);
+  else
+    projectLoop<false, false>(len, rg, fg, cg, sg, m, rmin, rmax, kc, amin, inv_inc, wrap, n_out, kg, og);
 }
 
 }  // namespace multi_laserscan_merger

@@ -4,7 +4,6 @@
 #include <cmath>
 
 #include "beam_kernel.hpp"
-#include "multi_laserscan_merger/fast_math.hpp"
 
 namespace multi_laserscan_merger
 {
@@ -27,8 +26,9 @@ Eigen::Matrix<float, 2, 3> planarPart(const Eigen::Isometry3d& t)
 }
 
 
-// Output limits: beyond range_max is no return (+Inf or range_max + inf_epsilon), below
-// range_min is -Inf (REP 117: too close), NaN stays NaN. Vectorised like projectBeams.
+// Output limits: kInvalidMark (only invalid readings there) becomes NaN, beyond range_max is
+// no return (+Inf or range_max + inf_epsilon), below range_min is -Inf (REP 117: too close).
+// Vectorised like projectBeams.
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void
 applyOutputLimits(const float* __restrict in, float* __restrict r, std::size_t n, float rmin, float rmax,
                   float no_return)
@@ -36,7 +36,7 @@ applyOutputLimits(const float* __restrict in, float* __restrict r, std::size_t n
   for (std::size_t k = 0; k < n; ++k)
   {
     float v = in[k];
-    v = v > rmax ? no_return : v;
+    v = v == kInvalidMark ? kFNaN : v > rmax ? no_return : v;
     v = v < rmin ? -kFInf : v;
     r[k] = v;
   }
@@ -150,7 +150,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
   status.assign(n_src, SourceStatus::kMissing);
   out.stamp = t_out;
   // Scratch bins past the end take the beams left out (see projectBeams).
-  bins_.assign(n_out_ + 1 + kScratch, kFInf);
+  bins_.assign(n_out_ + kScratch, kFInf);
 
   bool any_intensity = false;
   for (std::size_t s = 0; s < n_src && s < inputs.size(); ++s)
@@ -169,7 +169,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     }
   }
   if (any_intensity)
-    ibins_.assign(n_out_ + 1 + kScratch, 0.0f);
+    ibins_.assign(n_out_ + kScratch, 0.0f);
 
   const bool compensate = odom != nullptr && !odom->empty();
   Eigen::Isometry3d out_T_odom = Eigen::Isometry3d::Identity();  // P(t_out)^-1
@@ -258,7 +258,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     out.intensities.assign(ibins_.begin(), ibins_.begin() + static_cast<std::ptrdiff_t>(n_out_));
     for (std::size_t k = 0; k < n_out_; ++k)
       if (!(r[k] <= rmax))
-        out.intensities[k] = 0.0f;  // no return (NaN keeps its intensity 0 anyway)
+        out.intensities[k] = 0.0f;  // no return or invalid
   }
   else
     out.intensities.clear();
@@ -282,37 +282,16 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
   // Bins from one full turn on are the first ones again; no wrap when the increment does not divide 2*pi.
   const int wrap = n_circle_ != 0 ? static_cast<int>(n_circle_) : std::numeric_limits<int>::max();
   const unsigned n_out = static_cast<unsigned>(n_out_);
-  constexpr float kTwoPi = static_cast<float>(2.0 * kPi);
-
-  auto bin_of = [=](float x, float y) -> int {
-    float rel = fastAtan2(y, x) - amin;
-    rel += rel < 0.0f ? kTwoPi : 0.0f;
-    rel -= rel >= kTwoPi ? kTwoPi : 0.0f;
-    int k = static_cast<int>(rel * inv_inc + 0.5f);
-    k -= k >= wrap ? wrap : 0;
-    return k;
-  };
-  // Transform of beam i (border transform plus the per-beam step inside its group).
-  auto transform_of = [&](std::size_t i) {
-    const std::size_t g = i / group_size;
-    Eigen::Matrix<float, 2, 3> m = transforms[g];
-    if (kInterpolate)
-    {
-      const std::size_t b0 = g * group_size;
-      const std::size_t next = std::min(b0 + group_size, n - 1);
-      if (next > b0)
-        m += (transforms[g + 1] - transforms[g]) * (static_cast<float>(i - b0) / static_cast<float>(next - b0));
-    }
-    return m;
-  };
+  // -Inf ("closer than the sensor can measure") is kept as an obstacle at the sensor's
+  // range_min, unless the source's own range_min is tighter: then everything closer
+  // than it (the robot's body, typically) is deliberately ignored like an invalid reading.
+  const bool keep_too_close = !(sp.range_min > scan.range_min);
 
   if (bin_buffer_.size() < n)
   {
     bin_buffer_.resize(n);
     range_buffer_.resize(n);
-    special_buffer_.resize(n);
   }
-  std::size_t n_special = 0;
   int* kb = bin_buffer_.data();
   float* rb = range_buffer_.data();
   const float* ranges = scan.ranges;
@@ -346,83 +325,35 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
     const float off = static_cast<float>(lo - b0);
     const float m_row[12] = { m00 + off * d00, m01 + off * d01, m02 + off * d02, m10 + off * d10, m11 + off * d11,
                               m12 + off * d12, d00, d01, d02, d10, d11, d12 };
-    n_special += projectBeams(hi - lo, ranges + lo, fov_or_all ? fov_or_all + lo : nullptr, cs + lo, sn + lo, m_row,
-                              rmin, rmax, amin, inv_inc, wrap, n_out, kb + lo, rb + lo);
+    projectBeams(hi - lo, ranges + lo, fov_or_all ? fov_or_all + lo : nullptr, cs + lo, sn + lo, m_row, rmin, rmax,
+                 keep_too_close, amin, inv_inc, wrap, n_out, kb + lo, rb + lo);
   }
 
-  // Pass 2: keep the closest range per bin; a real range also replaces a NaN mark
-  // (bv < rr is false for a NaN bv). Without intensities the update is branch-free.
+  // Pass 2: keep the closest range per bin. Invalid beams carry kInvalidMark, which only
+  // replaces +Inf and loses against any real range: REP 117 falls out of the minimum.
   // Beams before the first and after the last one inside the mask are not visited.
   float* bins = bins_.data();
-  float* ibins = with_intensity ? ibins_.data() : nullptr;
-  const int special_bin = static_cast<int>(n_out_);
-  const float* intens = scan.intensities;
-  // The beams pass 3 needs are collected on the way (a store per beam is cheaper than a
-  // second sweep).
-  std::uint32_t* special_list = special_buffer_.data();
-  std::size_t n_listed = 0;
-  if (ibins == nullptr)
+  if (!with_intensity)
   {
     for (std::size_t i = c.first_in; i < c.end_in; ++i)
     {
       const int k = kb[i];
-      if (k == special_bin)  // rare, well predicted
-        special_list[n_listed++] = static_cast<std::uint32_t>(i);
       const float bv = bins[k], rr = rb[i];
       bins[k] = bv < rr ? bv : rr;
     }
-  }
-  else
-  {
-    for (std::size_t i = c.first_in; i < c.end_in; ++i)
-    {
-      const int k = kb[i];
-      special_list[n_listed] = static_cast<std::uint32_t>(i);
-      n_listed += k == special_bin ? 1 : 0;
-      const float rr = rb[i];
-      if (!(bins[k] <= rr))
-      {
-        bins[k] = rr;
-        ibins[k] = intens[i];
-      }
-    }
-  }
-
-  if (n_special == 0)
     return;
-  // Pass 3, only for scans holding NaN, -Inf or readings below range_min.
-  // -Inf ("closer than the sensor can measure") is kept as an obstacle at the sensor's
-  // range_min, unless the source's own range_min is tighter: then everything closer
-  // than it (the robot's body, typically) is deliberately ignored like an invalid reading.
-  const bool keep_too_close = !(sp.range_min > scan.range_min);
-  for (std::size_t s_i = 0; s_i < n_listed; ++s_i)
+  }
+  float* ibins = ibins_.data();
+  const float* intens = scan.intensities;
+  for (std::size_t i = c.first_in; i < c.end_in; ++i)
   {
-    const std::size_t i = special_list[s_i];
-    const float v = ranges[i];
-    const Eigen::Matrix<float, 2, 3> m = transform_of(i);
-    const float ca = cs[i], sa = sn[i];
-    if (v == -std::numeric_limits<float>::infinity() && keep_too_close)
+    const int k = kb[i];
+    const float rr = rb[i];
+    if (rr < bins[k])
     {
-      const float x = rmin * (m(0, 0) * ca + m(0, 1) * sa) + m(0, 2);
-      const float y = rmin * (m(1, 0) * ca + m(1, 1) * sa) + m(1, 2);
-      const int k = bin_of(x, y);
-      if (static_cast<unsigned>(k) < n_out)
-      {
-        const float rr = std::sqrt(x * x + y * y);
-        if (rr < bins[k] || bins[k] != bins[k])
-        {
-          bins[k] = rr;
-          if (ibins != nullptr)
-            ibins[k] = intens[i];
-        }
-      }
-      continue;
+      bins[k] = rr;
+      ibins[k] = intens[i];
     }
-    // Invalid: its direction (a ray to infinity: rotation only) is marked NaN
-    // unless something real (or another mark) is already there.
-    const int k = bin_of(m(0, 0) * ca + m(0, 1) * sa, m(1, 0) * ca + m(1, 1) * sa);
-    if (static_cast<unsigned>(k) < n_out && bins[k] == kFInf)
-      bins[k] = kFNaN;
   }
 }
 

@@ -131,8 +131,7 @@ private:
   std::vector<Eigen::Matrix<float, 2, 3>> group_transforms_;
   std::vector<int> bin_buffer_;
   std::vector<float> range_buffer_;
-  std::vector<std::uint32_t> special_buffer_;
-  std::vector<float> bins_, ibins_;  ///< fusion buffers: n_out bins + scratch bins
+  std::vector<float> bins_, ibins_;  ///< fusion buffers: n_out bins + scratch bins (see beam_kernel.hpp)
 };
 
 }  // namespace multi_laserscan_merger
