@@ -48,6 +48,7 @@ Eigen::Quaterniond slerpShortest(const Eigen::Quaterniond& a, const Eigen::Quate
 OdometryBuffer::OdometryBuffer(std::size_t capacity, double jump_back_threshold)
   : capacity_(std::max<std::size_t>(capacity, 1)), jump_back_threshold_(jump_back_threshold)
 {
+  entries_.reserve(capacity_ + 1);
 }
 
 OdometryBuffer::AddResult OdometryBuffer::add(double t, const Eigen::Vector3d& position,
@@ -76,8 +77,8 @@ OdometryBuffer::AddResult OdometryBuffer::add(double t, const Eigen::Vector3d& p
     }
   }
   entries_.push_back(e);
-  while (entries_.size() > capacity_)
-    entries_.pop_front();
+  if (entries_.size() > capacity_)
+    entries_.erase(entries_.begin(), entries_.begin() + static_cast<std::ptrdiff_t>(entries_.size() - capacity_));
   return result;
 }
 

@@ -6,7 +6,7 @@
 
 #include <Eigen/Geometry>
 #include <cstddef>
-#include <deque>
+#include <vector>
 
 namespace multi_laserscan_merger
 {
@@ -66,7 +66,7 @@ private:
   };
   std::size_t capacity_;
   double jump_back_threshold_;
-  std::deque<Entry> entries_;
+  std::vector<Entry> entries_;  ///< contiguous: the look-up (hot) is a binary search; dropping the oldest moves <= capacity entries at odometry rate
 };
 
 }  // namespace multi_laserscan_merger
