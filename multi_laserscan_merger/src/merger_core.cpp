@@ -29,13 +29,15 @@ Eigen::Matrix<float, 2, 3> planarPart(const Eigen::Isometry3d& t)
 // Output limits: kInvalidMark (only invalid readings there) becomes NaN, beyond range_max is
 // no return (+Inf or range_max + inf_epsilon), below range_min is -Inf (REP 117: too close).
 // Vectorised like projectBeams.
+// The fusion bins are reset to +Inf on the way, ready for the next merge.
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void
-applyOutputLimits(const float* __restrict in, float* __restrict r, std::size_t n, float rmin, float rmax,
+applyOutputLimits(float* __restrict in, float* __restrict r, std::size_t n, float rmin, float rmax,
                   float no_return)
 {
   for (std::size_t k = 0; k < n; ++k)
   {
     float v = in[k];
+    in[k] = kFInf;
     v = v == kInvalidMark ? kFNaN : v > rmax ? no_return : v;
     v = v < rmin ? -kFInf : v;
     r[k] = v;
@@ -150,7 +152,9 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
   status.assign(n_src, SourceStatus::kMissing);
   out.stamp = t_out;
   // Scratch bins past the end take the beams left out (see projectBeams).
-  bins_.assign(n_out_ + kScratch, kFInf);
+  // +Inf everywhere: filled once, reset by applyOutputLimits at the end of every merge (the
+  // scratch bins after n_out are never read, they need no reset).
+  bins_.resize(n_out_ + kScratch, kFInf);
 
   bool any_intensity = false;
   for (std::size_t s = 0; s < n_src && s < inputs.size(); ++s)
