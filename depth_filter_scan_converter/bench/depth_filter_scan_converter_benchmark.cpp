@@ -31,14 +31,13 @@ struct Input
 // a wall 3.5 m ahead, a table, a cabinet and a chair-sized box.
 const Input& synthetic()
 {
-  static const Input input = []
-  {
+  static const Input input = [] {
     Input in;
     Scene scene;
     scene.wall_x = 3.5;
-    scene.boxes.push_back({Vector3d(1.2, -0.9, 0.70), Vector3d(2.0, 0.1, 0.75)});  // table top
-    scene.boxes.push_back({Vector3d(2.6, 0.4, 0.0), Vector3d(3.0, 1.4, 1.8)});     // cabinet
-    scene.boxes.push_back({Vector3d(1.0, 0.5, 0.0), Vector3d(1.45, 0.95, 0.45)});  // chair
+    scene.boxes.push_back({ Vector3d(1.2, -0.9, 0.70), Vector3d(2.0, 0.1, 0.75) });  // table top
+    scene.boxes.push_back({ Vector3d(2.6, 0.4, 0.0), Vector3d(3.0, 1.4, 1.8) });     // cabinet
+    scene.boxes.push_back({ Vector3d(1.0, 0.5, 0.0), Vector3d(1.45, 0.95, 0.45) });  // chair
     in.camera_to_reference = cameraMount(0.6, 20 * kDeg);
     const Points pts = render(scene, in.camera_to_reference, 320, 163, 87 * kDeg);
     in.cloud = makeCloud<float>(pts, 320, 163, 0, 16);  // 32-byte points: x, y, z, intensity, 16 bytes of other fields
@@ -53,8 +52,7 @@ const Input& synthetic()
 // five_people.pcd, 640 x 480, used as stored, at the camera pose fitted from its floor.
 const Input* fivePeople()
 {
-  static const Input* input = []() -> Input*
-  {
+  static const Input* input = []() -> Input* {
     const char* env = std::getenv("DFSC_DATA_DIR");
     const std::string dir = env ? env : DFSC_DATA_DIR;
     try
@@ -89,7 +87,7 @@ void runCore(benchmark::State& state, const Input* in)
     state.SkipWithError("input not available");
     return;
   }
-  dfsc::Projector projector{dfsc::Parameters()};
+  dfsc::Projector projector{ dfsc::Parameters() };
   std::vector<float> ranges;
   for (auto _ : state)
   {
@@ -160,7 +158,7 @@ public:
   {
     std::printf("\n%-20s %10s %15s %8s   (CPU time per cloud, median of repetitions)\n", "cloud", "core [ms]",
                 "reference [ms]", "ratio");
-    for (const char* cloud : {"Synthetic320x163", "FivePeople640x480"})
+    for (const char* cloud : { "Synthetic320x163", "FivePeople640x480" })
     {
       const double core = median(std::string("BM_Core_") + cloud);
       const double ref = median(std::string("BM_Reference_") + cloud);

@@ -115,13 +115,12 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
     .def(
       "project",
       [](dfsc::Projector& self, const py::array& points, const Eigen::Matrix4d& camera_to_reference,
-         int intensity_channel, bool keep_points)
-      {
+         int intensity_channel, bool keep_points) {
         const dfsc::CloudView v = viewOf(points, intensity_channel);
         std::vector<float> ranges, intensities, kept;
         self.project(v, isometryOf(camera_to_reference), ranges, &intensities, keep_points ? &kept : nullptr);
         py::array_t<float> kept_array = toArray(kept);
-        kept_array.resize({static_cast<py::ssize_t>(kept.size() / 3), static_cast<py::ssize_t>(3)});
+        kept_array.resize({ static_cast<py::ssize_t>(kept.size() / 3), static_cast<py::ssize_t>(3) });
         return std::make_tuple(toArray(ranges), toArray(intensities), kept_array);
       },
       py::arg("points"), py::arg("camera_to_reference"), py::arg("intensity_channel") = -1,
@@ -130,8 +129,7 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
   m.def(
     "reference_project",
     [](const dfsc::Parameters& params, const py::array& points, const Eigen::Matrix4d& camera_to_reference,
-       int intensity_channel)
-    {
+       int intensity_channel) {
       const dfsc::CloudView v = viewOf(points, intensity_channel);
       std::vector<float> ranges, intensities;
       dfsc::referenceProject(params, v, isometryOf(camera_to_reference), ranges, &intensities);
@@ -142,8 +140,8 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
   m.def(
     "validate_cloud",
     [](const std::vector<std::tuple<std::string, std::uint32_t, int, std::uint32_t>>& fields, std::uint32_t width,
-       std::uint32_t height, std::uint32_t point_step, std::uint32_t row_step, bool is_bigendian, const py::bytes& data)
-    {
+       std::uint32_t height, std::uint32_t point_step, std::uint32_t row_step, bool is_bigendian,
+       const py::bytes& data) {
       dfsc::CloudLayout layout;
       layout.width = width;
       layout.height = height;
@@ -152,7 +150,7 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
       layout.is_bigendian = is_bigendian;
       for (const auto& f : fields)
         layout.fields.push_back(
-          {std::get<0>(f), std::get<1>(f), static_cast<std::uint8_t>(std::get<2>(f)), std::get<3>(f)});
+          { std::get<0>(f), std::get<1>(f), static_cast<std::uint8_t>(std::get<2>(f)), std::get<3>(f) });
       const std::string bytes = data;
       dfsc::CloudView view;
       return dfsc::makeCloudView(layout, reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size(), "", view);

@@ -40,8 +40,8 @@ std::string makeCloudView(const CloudLayout& layout, const std::uint8_t* data, s
   if (layout.is_bigendian)
     return "is_bigendian is true (only little-endian data is supported)";
 
-  const FieldDescription* xyz[3] = {findField(layout, "x"), findField(layout, "y"), findField(layout, "z")};
-  const char* names[3] = {"x", "y", "z"};
+  const FieldDescription* xyz[3] = { findField(layout, "x"), findField(layout, "y"), findField(layout, "z") };
+  const char* names[3] = { "x", "y", "z" };
   for (int i = 0; i < 3; ++i)
   {
     if (!xyz[i])

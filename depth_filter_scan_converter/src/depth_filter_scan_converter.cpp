@@ -82,8 +82,9 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
                                                                static_cast<std::uint32_t>(queue_size_), nh_);
   tf_filter_->registerCallback([this](const Cloud::ConstPtr& cloud) { process(cloud); });
   tf_filter_->registerFailureCallback(
-    [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason)
-    { transformFailed(cloud, reason); });
+    [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+      transformFailed(cloud, reason);
+    });
   cloud_sub_.registerCallback([this](const Cloud::ConstPtr& cloud) { cloudArrived(cloud); });
 
   reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<Config>>(private_nh_);
@@ -203,7 +204,7 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
   layout.row_step = cloud->row_step;
   layout.is_bigendian = cloud->is_bigendian;
   for (const auto& f : cloud->fields)
-    layout.fields.push_back({f.name, f.offset, f.datatype, f.count});
+    layout.fields.push_back({ f.name, f.offset, f.datatype, f.count });
   CloudView view;
   std::string intensity_note;
   const std::string reason =
@@ -261,7 +262,7 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
     out->is_dense = true;
     out->point_step = 12;
     out->row_step = out->point_step * out->width;
-    const char* names[3] = {"x", "y", "z"};
+    const char* names[3] = { "x", "y", "z" };
     for (std::uint32_t i = 0; i < 3; ++i)
     {
       sensor_msgs::PointField f;
@@ -286,8 +287,7 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
 void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level*/)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  auto write = [&config](const Parameters& p)
-  {
+  auto write = [&config](const Parameters& p) {
     config.floor_height = p.floor_height;
     config.min_height = p.min_height;
     config.max_height = p.max_height;

@@ -68,17 +68,17 @@ TestCloud makeCloud(const Points& pts, std::uint32_t width, std::uint32_t height
   const std::uint32_t i_off = x_offset + 3 * sizeof(T);
   c.layout.point_step = i_off + 4 + extra_step;
   c.layout.row_step = width * c.layout.point_step + row_padding;
-  c.layout.fields = {{"x", x_offset, type, 1},
-                     {"y", static_cast<std::uint32_t>(x_offset + sizeof(T)), type, 1},
-                     {"z", static_cast<std::uint32_t>(x_offset + 2 * sizeof(T)), type, 1},
-                     {"intensity", i_off, 7, 1}};
+  c.layout.fields = { { "x", x_offset, type, 1 },
+                      { "y", static_cast<std::uint32_t>(x_offset + sizeof(T)), type, 1 },
+                      { "z", static_cast<std::uint32_t>(x_offset + 2 * sizeof(T)), type, 1 },
+                      { "intensity", i_off, 7, 1 } };
   c.data.assign(static_cast<std::size_t>(c.layout.row_step) * height, 0xAB);
   for (std::uint32_t r = 0; r < height; ++r)
     for (std::uint32_t col = 0; col < width; ++col)
     {
       const std::size_t i = static_cast<std::size_t>(r) * width + col;
       std::uint8_t* p = &c.data[static_cast<std::size_t>(r) * c.layout.row_step + col * c.layout.point_step];
-      const T xyz[3] = {static_cast<T>(pts[i].x()), static_cast<T>(pts[i].y()), static_cast<T>(pts[i].z())};
+      const T xyz[3] = { static_cast<T>(pts[i].x()), static_cast<T>(pts[i].y()), static_cast<T>(pts[i].z()) };
       std::memcpy(p + x_offset, xyz, sizeof xyz);
       const float in = intensity.empty() ? static_cast<float>(i) : intensity[i];
       std::memcpy(p + i_off, &in, sizeof in);

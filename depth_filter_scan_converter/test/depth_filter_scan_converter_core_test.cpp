@@ -76,8 +76,7 @@ TEST(Parameters, DefaultsAreValidAndFollowTheFencepostRule)
 
 TEST(Parameters, ValidateNamesTheBadParameter)
 {
-  auto expectBad = [](const std::function<void(dfsc::Parameters&)>& change, const std::string& name)
-  {
+  auto expectBad = [](const std::function<void(dfsc::Parameters&)>& change, const std::string& name) {
     dfsc::Parameters p;
     change(p);
     try
@@ -104,8 +103,7 @@ TEST(Parameters, ValidateNamesTheBadParameter)
   expectBad([](auto& p) { p.reference_frame = ""; }, "reference_frame");
   expectBad([](auto& p) { p.floor_height = kInf; }, "floor_height");
   expectBad(
-    [](auto& p)
-    {
+    [](auto& p) {
       p.use_inf = false;
       p.range_max = kInf;
     },
@@ -128,7 +126,7 @@ TEST(Projector, SetParametersRejectsInvalidAndKeepsTheOldOnes)
   EXPECT_THROW(proj.setParameters(bad), std::invalid_argument);
   EXPECT_DOUBLE_EQ(proj.parameters().max_height, 0.7);
   EXPECT_DOUBLE_EQ(proj.parameters().min_height, 0.05);
-  EXPECT_THROW(dfsc::Projector{bad}, std::invalid_argument);
+  EXPECT_THROW(dfsc::Projector{ bad }, std::invalid_argument);
 }
 
 // ---------------------------------------------------------------- angle approximation
@@ -136,7 +134,7 @@ TEST(Projector, SetParametersRejectsInvalidAndKeepsTheOldOnes)
 TEST(FastAtan2, ErrorIsFarBelowHalfABeam)
 {
   double worst = 0.0;
-  const double radii[] = {1e-3, 0.5, 1.0, 7.3, 100.0};
+  const double radii[] = { 1e-3, 0.5, 1.0, 7.3, 100.0 };
   for (double r : radii)
     for (int i = 0; i <= 200000; ++i)
     {
@@ -213,9 +211,9 @@ TEST(Projector, TableTopJustInsideAndJustOutsideTheBand)
   p.max_height = 0.8;
   const double lo = p.floor_height + p.min_height, hi = p.floor_height + p.max_height;
   // One table top per direction, 1.5 m away: heights 2 mm inside or outside the band.
-  const double heights[] = {lo + 0.002, lo - 0.002, hi - 0.002, hi + 0.002};
-  const double angles[] = {-0.4, -0.1, 0.2, 0.5};
-  const bool expected[] = {true, false, true, false};
+  const double heights[] = { lo + 0.002, lo - 0.002, hi - 0.002, hi + 0.002 };
+  const double angles[] = { -0.4, -0.1, 0.2, 0.5 };
+  const bool expected[] = { true, false, true, false };
   Points ref_pts;
   for (int k = 0; k < 4; ++k)
     for (int j = -3; j <= 3; ++j)  // a small patch, all at the same height
@@ -251,7 +249,7 @@ TEST(Projector, HoleBecomesObstacleWhereTheCameraRayMeetsTheFloor)
   const Eigen::Isometry3d cam = cameraMount(1.0, 30 * kDeg);
   const Vector3d hole(2.0, 0.3, -0.3);       // 30 cm below the floor
   const Vector3d shallow(2.0, -0.5, -0.03);  // 3 cm below the floor: not a hole
-  const TestCloud cloud = makeCloud(toCamera({hole, shallow}, cam));
+  const TestCloud cloud = makeCloud(toCamera({ hole, shallow }, cam));
   dfsc::Parameters p;
   EXPECT_EQ(countFinite(project(p, cloud, cam)), 0u);  // hole detection is off by default
 
@@ -287,7 +285,7 @@ TEST(Projector, PointExactlyOnAngleMaxStaysInBounds)
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
   {
     dfsc::Parameters p;  // -pi .. pi: the point behind the robot has atan2 = +pi
-    const std::vector<float> ranges = project(p, makeCloud({Vector3d(-2.0, 0.0, 0.5)}), identity);
+    const std::vector<float> ranges = project(p, makeCloud({ Vector3d(-2.0, 0.0, 0.5) }), identity);
     ASSERT_EQ(ranges.size(), 1441u);
     EXPECT_FLOAT_EQ(ranges.back(), 2.0f);
     EXPECT_EQ(countFinite(ranges), 1u);
@@ -299,7 +297,7 @@ TEST(Projector, PointExactlyOnAngleMaxStaysInBounds)
     p.angle_increment = 0.01;
     const Vector3d on_max(2.0 * std::cos(1.0), 2.0 * std::sin(1.0), 0.5);
     const Vector3d on_min(3.0 * std::cos(-1.0), 3.0 * std::sin(-1.0), 0.5);
-    const std::vector<float> ranges = project(p, makeCloud({on_max, on_min}), identity);
+    const std::vector<float> ranges = project(p, makeCloud({ on_max, on_min }), identity);
     ASSERT_EQ(ranges.size(), 201u);
     EXPECT_FLOAT_EQ(ranges.back(), 2.0f);
     EXPECT_FLOAT_EQ(ranges.front(), 3.0f);
@@ -310,9 +308,9 @@ TEST(Projector, PointExactlyOnAngleMaxStaysInBounds)
     p.angle_min = 0.0;
     p.angle_max = 1.0;
     p.angle_increment = 0.3;
-    const std::vector<float> ranges =
-      project(p, makeCloud({Vector3d(std::cos(1.0), std::sin(1.0), 0.5), Vector3d(std::cos(1.2), std::sin(1.2), 0.5)}),
-              identity);
+    const std::vector<float> ranges = project(
+      p, makeCloud({ Vector3d(std::cos(1.0), std::sin(1.0), 0.5), Vector3d(std::cos(1.2), std::sin(1.2), 0.5) }),
+      identity);
     ASSERT_EQ(ranges.size(), 4u);
     EXPECT_FLOAT_EQ(ranges[3], 1.0f);  // 1.0 rad -> beam 3 (0.9 rad), the point at 1.2 rad is outside
     EXPECT_EQ(countFinite(ranges), 1u);
@@ -348,7 +346,7 @@ TEST(Projector, NanAndInfPointsAreSkipped)
 TEST(Projector, EmptyCloudGivesAllNoReturn)
 {
   dfsc::Parameters p;
-  for (const auto& wh : {std::pair<std::uint32_t, std::uint32_t>{0, 0}, {10, 0}, {0, 1}})
+  for (const auto& wh : { std::pair<std::uint32_t, std::uint32_t>{ 0, 0 }, { 10, 0 }, { 0, 1 } })
   {
     const TestCloud cloud = makeCloud<float>({}, wh.first, wh.second);
     const std::vector<float> ranges = project(p, cloud, cameraMount(1.0, 0.0));
@@ -361,7 +359,7 @@ TEST(Projector, UnorganizedCloudMatchesOrganizedOne)
 {
   Scene scene;
   scene.wall_x = 3.0;
-  scene.boxes.push_back({Vector3d(1.0, -0.5, 0.0), Vector3d(1.4, 0.1, 0.6)});
+  scene.boxes.push_back({ Vector3d(1.0, -0.5, 0.0), Vector3d(1.4, 0.1, 0.6) });
   const Eigen::Isometry3d cam = cameraMount(0.8, 20 * kDeg);
   const Points pts = render(scene, cam, 64, 48);
   dfsc::Parameters p;
@@ -380,7 +378,7 @@ TEST(Projector, Float64FieldsGiveTheSameScan)
 {
   Scene scene;
   scene.wall_x = 2.5;
-  scene.boxes.push_back({Vector3d(1.2, 0.2, 0.0), Vector3d(1.6, 0.8, 0.4)});
+  scene.boxes.push_back({ Vector3d(1.2, 0.2, 0.0), Vector3d(1.6, 0.8, 0.4) });
   const Eigen::Isometry3d cam = cameraMount(0.6, 15 * kDeg, 5 * kDeg);
   const Points pts = render(scene, cam, 80, 60);
   dfsc::Parameters p;
@@ -435,7 +433,7 @@ TEST(Projector, RowAndColumnStridesSkipPoints)
   // On a rendered scene, strides agree with the reference that applies the same strides.
   Scene scene;
   scene.wall_x = 2.2;
-  scene.boxes.push_back({Vector3d(1.0, -0.3, 0.0), Vector3d(1.3, 0.3, 0.3)});
+  scene.boxes.push_back({ Vector3d(1.0, -0.3, 0.0), Vector3d(1.3, 0.3, 0.3) });
   const Eigen::Isometry3d cam = cameraMount(0.7, 25 * kDeg);
   const TestCloud big = makeCloud<float>(render(scene, cam, 160, 120), 160, 120);
   p.row_stride = 3;
@@ -453,7 +451,7 @@ TEST(Projector, UseInfFalseWritesRangeMaxPlusEpsilon)
   p.use_inf = false;
   p.range_max = 6.0;
   p.inf_epsilon = 0.5;
-  const std::vector<float> ranges = project(p, makeCloud({Vector3d(1.0, 0.0, 0.5)}), Eigen::Isometry3d::Identity());
+  const std::vector<float> ranges = project(p, makeCloud({ Vector3d(1.0, 0.0, 0.5) }), Eigen::Isometry3d::Identity());
   EXPECT_FLOAT_EQ(ranges[binOf(p, 0.0)], 1.0f);
   for (std::size_t i = 0; i < ranges.size(); ++i)
   {
@@ -469,8 +467,8 @@ TEST(Projector, RangeLimitsArePlanarDistances)
   dfsc::Parameters p;
   p.range_min = 1.0;
   p.range_max = 3.0;
-  const Points pts = {Vector3d(0.9, 0.0, 0.5), Vector3d(0.0, 1.1, 0.9), Vector3d(-3.1, 0.0, 0.5),
-                      Vector3d(0.0, -2.9, 0.1)};
+  const Points pts = { Vector3d(0.9, 0.0, 0.5), Vector3d(0.0, 1.1, 0.9), Vector3d(-3.1, 0.0, 0.5),
+                       Vector3d(0.0, -2.9, 0.1) };
   const std::vector<float> ranges = project(p, makeCloud(pts), Eigen::Isometry3d::Identity());
   EXPECT_EQ(countFinite(ranges), 2u);
   EXPECT_FLOAT_EQ(ranges[binOf(p, M_PI / 2)], 1.1f);
@@ -479,9 +477,9 @@ TEST(Projector, RangeLimitsArePlanarDistances)
 
 TEST(Projector, IntensityOfTheClosestPoint)
 {
-  const Points pts = {Vector3d(2.0, 0.0, 0.5), Vector3d(1.0, 0.0, 0.5), Vector3d(3.0, 0.0, 0.5),
-                      Vector3d(0.0, 1.0, 0.5)};
-  const TestCloud cloud = makeCloud<float>(pts, 4, 1, 0, 0, 0, {5.0f, 9.0f, 7.0f, 3.0f});
+  const Points pts = { Vector3d(2.0, 0.0, 0.5), Vector3d(1.0, 0.0, 0.5), Vector3d(3.0, 0.0, 0.5),
+                       Vector3d(0.0, 1.0, 0.5) };
+  const TestCloud cloud = makeCloud<float>(pts, 4, 1, 0, 0, 0, { 5.0f, 9.0f, 7.0f, 3.0f });
   dfsc::Parameters p;
   dfsc::Projector proj(p);
   std::vector<float> ranges, intensities;
@@ -498,8 +496,8 @@ TEST(Projector, IntensityOfTheClosestPoint)
 TEST(Projector, KeptPointsAreTheFilteredPointsInTheReferenceFrame)
 {
   const Eigen::Isometry3d cam = cameraMount(1.0, 20 * kDeg, 0.0, 0.3, 0.2, -0.1);
-  const Points ref_pts = {Vector3d(1.0, 0.2, 0.4), Vector3d(1.5, 0.2, 0.01), Vector3d(2.0, -1.0, 0.9)};
-  dfsc::Projector proj{dfsc::Parameters()};
+  const Points ref_pts = { Vector3d(1.0, 0.2, 0.4), Vector3d(1.5, 0.2, 0.01), Vector3d(2.0, -1.0, 0.9) };
+  dfsc::Projector proj{ dfsc::Parameters() };
   std::vector<float> ranges, kept;
   proj.project(makeCloud(toCamera(ref_pts, cam)).view(), cam, ranges, nullptr, &kept);
   ASSERT_EQ(kept.size(), 6u);
@@ -516,15 +514,15 @@ TEST(Projector, BuffersReusedAcrossCallsDoNotLeak)
   dfsc::Parameters p;
   dfsc::Projector proj(p);
   std::vector<float> ranges;
-  proj.project(makeCloud({Vector3d(1.0, 0.0, 0.5)}).view(), Eigen::Isometry3d::Identity(), ranges);
+  proj.project(makeCloud({ Vector3d(1.0, 0.0, 0.5) }).view(), Eigen::Isometry3d::Identity(), ranges);
   EXPECT_EQ(countFinite(ranges), 1u);
-  proj.project(makeCloud({Vector3d(0.0, 1.0, 0.5)}).view(), Eigen::Isometry3d::Identity(), ranges);
+  proj.project(makeCloud({ Vector3d(0.0, 1.0, 0.5) }).view(), Eigen::Isometry3d::Identity(), ranges);
   EXPECT_EQ(countFinite(ranges), 1u);
   EXPECT_FLOAT_EQ(ranges[binOf(p, M_PI / 2)], 1.0f);
   p.angle_min = -1.0;
   p.angle_max = 1.0;
   proj.setParameters(p);
-  proj.project(makeCloud({Vector3d(0.0, 1.0, 0.5)}).view(), Eigen::Isometry3d::Identity(), ranges);
+  proj.project(makeCloud({ Vector3d(0.0, 1.0, 0.5) }).view(), Eigen::Isometry3d::Identity(), ranges);
   EXPECT_EQ(ranges.size(), p.beamCount());
   EXPECT_EQ(countFinite(ranges), 0u);
 }
@@ -582,8 +580,7 @@ TEST(CloudValidation, GoodCloudIsAccepted)
 
 TEST(CloudValidation, MalformedCloudsAreRejectedWithAReason)
 {
-  auto expectReason = [](const TestCloud& c, const std::string& part, std::size_t size_delta = 0)
-  {
+  auto expectReason = [](const TestCloud& c, const std::string& part, std::size_t size_delta = 0) {
     const std::string reason = reasonOf(c, size_delta);
     EXPECT_NE(reason.find(part), std::string::npos) << "reason: '" << reason << "', expected '" << part << "'";
   };

@@ -22,13 +22,13 @@ namespace test
 // The datatype codes are copied as numbers: this holds only while PCL numbers them like
 // sensor_msgs/PointField (anything else the core rejects as an unknown type).
 static_assert(pcl::PCLPointField::INT8 == static_cast<int>(FieldType::Int8) &&
-                  pcl::PCLPointField::UINT8 == static_cast<int>(FieldType::UInt8) &&
-                  pcl::PCLPointField::INT16 == static_cast<int>(FieldType::Int16) &&
-                  pcl::PCLPointField::UINT16 == static_cast<int>(FieldType::UInt16) &&
-                  pcl::PCLPointField::INT32 == static_cast<int>(FieldType::Int32) &&
-                  pcl::PCLPointField::UINT32 == static_cast<int>(FieldType::UInt32) &&
-                  pcl::PCLPointField::FLOAT32 == static_cast<int>(FieldType::Float32) &&
-                  pcl::PCLPointField::FLOAT64 == static_cast<int>(FieldType::Float64),
+                pcl::PCLPointField::UINT8 == static_cast<int>(FieldType::UInt8) &&
+                pcl::PCLPointField::INT16 == static_cast<int>(FieldType::Int16) &&
+                pcl::PCLPointField::UINT16 == static_cast<int>(FieldType::UInt16) &&
+                pcl::PCLPointField::INT32 == static_cast<int>(FieldType::Int32) &&
+                pcl::PCLPointField::UINT32 == static_cast<int>(FieldType::UInt32) &&
+                pcl::PCLPointField::FLOAT32 == static_cast<int>(FieldType::Float32) &&
+                pcl::PCLPointField::FLOAT64 == static_cast<int>(FieldType::Float64),
               "PCL field type codes differ from sensor_msgs/PointField");
 
 struct PcdCloud

@@ -82,8 +82,8 @@ struct Scenario
     scans.push_back(make_scan(0.900, -kPi, 1.0 * deg, 360, 0.125 / 360));
     scans.push_back(make_scan(0.980, -41.0 * deg, 0.25 * deg, 328, 0.0));
     scans.push_back(make_scan(0.960, -41.0 * deg, 0.25 * deg, 328, 0.0));
-    mounts = { mount(0.37, 0.24, 0.2, kPi / 4), mount(-0.37, -0.24, 0.2, -3 * kPi / 4),
-               mount(0.37, 0.0, 0.5, 0.0), mount(-0.37, 0.0, 0.5, kPi) };
+    mounts = { mount(0.37, 0.24, 0.2, kPi / 4), mount(-0.37, -0.24, 0.2, -3 * kPi / 4), mount(0.37, 0.0, 0.5, 0.0),
+               mount(-0.37, 0.0, 0.5, kPi) };
     for (int i = 0; i < 4; ++i)
     {
       scans[i].header.frame_id = names[i];
@@ -368,11 +368,12 @@ void checkReferences()
   Scenario sc_deskew(true);
   MergerCore core_deskew(sc_deskew.params);
   MergedScan out_deskew;
-  core_deskew.merge(sc_deskew.inputs(), sc_deskew.t_out, &sc_deskew.odom, Eigen::Isometry3d::Identity(), out_deskew, st);
-  std::printf("Agreement of the references with the core (real ranges within one bin and 1 cm): "
-              "sin/cos %.1f%%, laser_geometry+tf2 %.1f%%, laser_geometry with tf (against the deskewing core) %.1f%%\n\n",
-              100 * agreement(out.ranges, r1), 100 * agreement(out.ranges, r2),
-              100 * agreement(out_deskew.ranges, r3));
+  core_deskew.merge(sc_deskew.inputs(), sc_deskew.t_out, &sc_deskew.odom, Eigen::Isometry3d::Identity(), out_deskew,
+                    st);
+  std::printf(
+    "Agreement of the references with the core (real ranges within one bin and 1 cm): "
+    "sin/cos %.1f%%, laser_geometry+tf2 %.1f%%, laser_geometry with tf (against the deskewing core) %.1f%%\n\n",
+    100 * agreement(out.ranges, r1), 100 * agreement(out.ranges, r2), 100 * agreement(out_deskew.ranges, r3));
 }
 }  // namespace
 
@@ -393,9 +394,10 @@ int main(int argc, char** argv)
     std::printf("  reference laser_geometry+tf2 %8.2f us  ratio reference/core %6.1fx\n", g_lg_ns / 1e3,
                 g_lg_ns / g_core_ns);
     if (g_lgtf_ns > 0.0 && g_core_deskew_ns > 0.0)
-      std::printf("  reference laser_geometry, tf  %8.2f us  ratio reference/deskewed core %6.1fx "
-                  "(it moves every beam from its own time too)\n",
-                  g_lgtf_ns / 1e3, g_lgtf_ns / g_core_deskew_ns);
+      std::printf(
+        "  reference laser_geometry, tf  %8.2f us  ratio reference/deskewed core %6.1fx "
+        "(it moves every beam from its own time too)\n",
+        g_lgtf_ns / 1e3, g_lgtf_ns / g_core_deskew_ns);
     if (g_core_deskew_ns > 0.0)
       std::printf("  (deskewed core vs sin/cos reference without deskew: %.1fx)\n", g_ref_ns / g_core_deskew_ns);
   }

@@ -109,103 +109,102 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
 
   m.def("fast_atan2", &fastAtan2, py::arg("y"), py::arg("x"));
   m.def(
-      "remap_resolution",
-      [](const std::vector<float>& in, std::size_t n_new) {
-        std::vector<float> out;
-        remapResolution(in, n_new, out);
-        return py::array_t<float>(out.size(), out.data());
-      },
-      py::arg("ranges"), py::arg("n_new"));
+    "remap_resolution",
+    [](const std::vector<float>& in, std::size_t n_new) {
+      std::vector<float> out;
+      remapResolution(in, n_new, out);
+      return py::array_t<float>(out.size(), out.data());
+    },
+    py::arg("ranges"), py::arg("n_new"));
   m.def(
-      "scan_fault",
-      [](const py::dict& d) -> py::object {
-        ScanHolder h;
-        scanFromDict(d, h);
-        const char* f = scanFault(h.input.scan);
-        return f == nullptr ? py::object(py::none()) : py::object(py::str(f));
-      },
-      py::arg("scan"), "None when the scan is usable, else the fault");
+    "scan_fault",
+    [](const py::dict& d) -> py::object {
+      ScanHolder h;
+      scanFromDict(d, h);
+      const char* f = scanFault(h.input.scan);
+      return f == nullptr ? py::object(py::none()) : py::object(py::str(f));
+    },
+    py::arg("scan"), "None when the scan is usable, else the fault");
   m.def(
-      "source_in_fov",
-      [](const py::dict& source, double angle) { return sourceFromDict(source).inFieldOfView(angle); },
-      py::arg("source"), py::arg("angle"));
+    "source_in_fov", [](const py::dict& source, double angle) { return sourceFromDict(source).inFieldOfView(angle); },
+    py::arg("source"), py::arg("angle"));
 
   py::class_<OdometryBuffer>(m, "OdometryBuffer")
-      .def(py::init<std::size_t, double>(), py::arg("capacity") = 100, py::arg("jump_back_threshold") = 1.0)
-      .def(
-          "add",
-          [](OdometryBuffer& b, double t, const Eigen::Vector3d& p, const Eigen::Vector4d& q_xyzw) {
-            switch (b.add(t, p, quatFromXyzw(q_xyzw)))
-            {
-              case OdometryBuffer::AddResult::kAdded:
-                return "added";
-              case OdometryBuffer::AddResult::kOutOfOrder:
-                return "out_of_order";
-              case OdometryBuffer::AddResult::kClearedBackwards:
-                return "cleared_backwards";
-              case OdometryBuffer::AddResult::kRejected:
-                return "rejected";
-            }
-            return "?";
-          },
-          py::arg("t"), py::arg("position"), py::arg("orientation_xyzw"))
-      .def(
-          "pose_at",
-          [](const OdometryBuffer& b, double t) -> py::object {
-            Pose p;
-            if (!b.poseAt(t, p))
-              return py::none();
-            const Eigen::Vector4d q(p.orientation.x(), p.orientation.y(), p.orientation.z(), p.orientation.w());
-            return py::make_tuple(Eigen::Vector3d(p.position), q);
-          },
-          py::arg("t"), "(position, quaternion xyzw) or None when empty")
-      .def(
-          "motion", [](const OdometryBuffer& b, double t_from, double t_to) { return b.motion(t_from, t_to).matrix(); },
-          py::arg("t_from"), py::arg("t_to"), "4x4 P(t_to)^-1 * P(t_from)")
-      .def("clear", &OdometryBuffer::clear)
-      .def("__len__", &OdometryBuffer::size);
+    .def(py::init<std::size_t, double>(), py::arg("capacity") = 100, py::arg("jump_back_threshold") = 1.0)
+    .def(
+      "add",
+      [](OdometryBuffer& b, double t, const Eigen::Vector3d& p, const Eigen::Vector4d& q_xyzw) {
+        switch (b.add(t, p, quatFromXyzw(q_xyzw)))
+        {
+          case OdometryBuffer::AddResult::kAdded:
+            return "added";
+          case OdometryBuffer::AddResult::kOutOfOrder:
+            return "out_of_order";
+          case OdometryBuffer::AddResult::kClearedBackwards:
+            return "cleared_backwards";
+          case OdometryBuffer::AddResult::kRejected:
+            return "rejected";
+        }
+        return "?";
+      },
+      py::arg("t"), py::arg("position"), py::arg("orientation_xyzw"))
+    .def(
+      "pose_at",
+      [](const OdometryBuffer& b, double t) -> py::object {
+        Pose p;
+        if (!b.poseAt(t, p))
+          return py::none();
+        const Eigen::Vector4d q(p.orientation.x(), p.orientation.y(), p.orientation.z(), p.orientation.w());
+        return py::make_tuple(Eigen::Vector3d(p.position), q);
+      },
+      py::arg("t"), "(position, quaternion xyzw) or None when empty")
+    .def(
+      "motion", [](const OdometryBuffer& b, double t_from, double t_to) { return b.motion(t_from, t_to).matrix(); },
+      py::arg("t_from"), py::arg("t_to"), "4x4 P(t_to)^-1 * P(t_from)")
+    .def("clear", &OdometryBuffer::clear)
+    .def("__len__", &OdometryBuffer::size);
 
   py::class_<MergerCore>(m, "Merger")
-      .def(py::init([](const py::dict& output, const py::list& sources, int odom_queue_size) {
-             MergerParams p;
-             p.output = outputFromDict(output);
-             p.odom_queue_size = odom_queue_size;
-             for (const auto& s : sources)
-               p.sources.push_back(sourceFromDict(s.cast<py::dict>()));
-             return new MergerCore(p);
-           }),
-           py::arg("output"), py::arg("sources"), py::arg("odom_queue_size") = 100)
-      .def_property_readonly("beam_count", &MergerCore::beamCount)
-      .def(
-          "merge",
-          [](MergerCore& core, const py::list& scans, double t_out, const OdometryBuffer* odom,
-             const Eigen::Matrix4d& output_T_robot) {
-            std::vector<ScanHolder> holders(scans.size());
-            std::vector<SourceInput> inputs(scans.size());
-            for (std::size_t i = 0; i < scans.size(); ++i)
-            {
-              if (scans[i].is_none())
-                continue;
-              scanFromDict(scans[i].cast<py::dict>(), holders[i]);
-              inputs[i] = holders[i].input;
-            }
-            Eigen::Isometry3d o;
-            o.matrix() = output_T_robot;
-            MergedScan out;
-            std::vector<SourceStatus> status;
-            core.merge(inputs, t_out, odom, o, out, status);
-            py::dict r;
-            r["stamp"] = out.stamp;
-            r["ranges"] = py::array_t<float>(out.ranges.size(), out.ranges.data());
-            r["intensities"] = py::array_t<float>(out.intensities.size(), out.intensities.data());
-            py::list st;
-            for (auto s : status)
-              st.append(statusName(s));
-            r["status"] = st;
-            return r;
-          },
-          py::arg("scans"), py::arg("t_out"), py::arg("odom") = nullptr,
-          py::arg("output_T_robot") = Eigen::Matrix4d::Identity(),
-          "scans: one dict (or None) per source: stamp, angle_min, angle_max, angle_increment, time_increment, "
-          "range_min, range_max, ranges, [intensities], transform (4x4 output <- sensor)");
+    .def(py::init([](const py::dict& output, const py::list& sources, int odom_queue_size) {
+           MergerParams p;
+           p.output = outputFromDict(output);
+           p.odom_queue_size = odom_queue_size;
+           for (const auto& s : sources)
+             p.sources.push_back(sourceFromDict(s.cast<py::dict>()));
+           return new MergerCore(p);
+         }),
+         py::arg("output"), py::arg("sources"), py::arg("odom_queue_size") = 100)
+    .def_property_readonly("beam_count", &MergerCore::beamCount)
+    .def(
+      "merge",
+      [](MergerCore& core, const py::list& scans, double t_out, const OdometryBuffer* odom,
+         const Eigen::Matrix4d& output_T_robot) {
+        std::vector<ScanHolder> holders(scans.size());
+        std::vector<SourceInput> inputs(scans.size());
+        for (std::size_t i = 0; i < scans.size(); ++i)
+        {
+          if (scans[i].is_none())
+            continue;
+          scanFromDict(scans[i].cast<py::dict>(), holders[i]);
+          inputs[i] = holders[i].input;
+        }
+        Eigen::Isometry3d o;
+        o.matrix() = output_T_robot;
+        MergedScan out;
+        std::vector<SourceStatus> status;
+        core.merge(inputs, t_out, odom, o, out, status);
+        py::dict r;
+        r["stamp"] = out.stamp;
+        r["ranges"] = py::array_t<float>(out.ranges.size(), out.ranges.data());
+        r["intensities"] = py::array_t<float>(out.intensities.size(), out.intensities.data());
+        py::list st;
+        for (auto s : status)
+          st.append(statusName(s));
+        r["status"] = st;
+        return r;
+      },
+      py::arg("scans"), py::arg("t_out"), py::arg("odom") = nullptr,
+      py::arg("output_T_robot") = Eigen::Matrix4d::Identity(),
+      "scans: one dict (or None) per source: stamp, angle_min, angle_max, angle_increment, time_increment, "
+      "range_min, range_max, ranges, [intensities], transform (4x4 output <- sensor)");
 }

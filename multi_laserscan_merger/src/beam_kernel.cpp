@@ -29,11 +29,11 @@ namespace
 // case does not pay for the interpolation.
 template <bool kStep, bool kAllInView>
 inline __attribute__((always_inline)) void projectLoop(std::size_t len, const float* __restrict rg,
-                                                      const float* __restrict fg, const float* __restrict cg,
-                                                      const float* __restrict sg, const float* __restrict m,
-                                                      float rmin, float rmax, int keep_close, float amin,
-                                                      float inv_inc, int wrap, unsigned n_out, int* __restrict kg,
-                                                      float* __restrict og)
+                                                       const float* __restrict fg, const float* __restrict cg,
+                                                       const float* __restrict sg, const float* __restrict m,
+                                                       float rmin, float rmax, int keep_close, float amin,
+                                                       float inv_inc, int wrap, unsigned n_out, int* __restrict kg,
+                                                       float* __restrict og)
 {
   constexpr float kTwoPi = 6.28318530717958647692f;
   constexpr std::int32_t kInfBits = 0x7f800000;
@@ -83,10 +83,10 @@ inline __attribute__((always_inline)) void projectLoop(std::size_t len, const fl
 }  // namespace
 
 // AVX-512, AVX2+FMA and baseline versions; the CPU picks at load time.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void
-projectBeams(std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
-             const float* __restrict sg, const float* __restrict m, float rmin, float rmax, bool keep_too_close,
-             float amin, float inv_inc, int wrap, unsigned n_out, int* __restrict kg, float* __restrict og)
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void projectBeams(
+  std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
+  const float* __restrict sg, const float* __restrict m, float rmin, float rmax, bool keep_too_close, float amin,
+  float inv_inc, int wrap, unsigned n_out, int* __restrict kg, float* __restrict og)
 {
   const int kc = keep_too_close ? 1 : 0;
   const bool step = m[6] != 0.0f || m[7] != 0.0f || m[8] != 0.0f || m[9] != 0.0f || m[10] != 0.0f || m[11] != 0.0f;

@@ -21,18 +21,16 @@ Eigen::Matrix<float, 2, 3> planarPart(const Eigen::Isometry3d& t)
 {
   Eigen::Matrix<float, 2, 3> m;
   m << static_cast<float>(t(0, 0)), static_cast<float>(t(0, 1)), static_cast<float>(t(0, 3)),
-      static_cast<float>(t(1, 0)), static_cast<float>(t(1, 1)), static_cast<float>(t(1, 3));
+    static_cast<float>(t(1, 0)), static_cast<float>(t(1, 1)), static_cast<float>(t(1, 3));
   return m;
 }
-
 
 // Output limits: kInvalidMark (only invalid readings there) becomes NaN, beyond range_max is
 // no return (+Inf or range_max + inf_epsilon), below range_min is -Inf (REP 117: too close).
 // Vectorised like projectBeams.
 // The fusion bins are reset to +Inf on the way, ready for the next merge.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void
-applyOutputLimits(float* __restrict in, float* __restrict r, std::size_t n, float rmin, float rmax,
-                  float no_return)
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void applyOutputLimits(
+  float* __restrict in, float* __restrict r, std::size_t n, float rmin, float rmax, float no_return)
 {
   for (std::size_t k = 0; k < n; ++k)
   {
@@ -139,14 +137,13 @@ void MergerCore::updateCache(std::size_t source, const ScanView& scan)
   c.end_in = c.n;
   while (c.end_in > c.first_in && c.in_fov[c.end_in - 1] == 0.0f)
     --c.end_in;
-  c.span_all_in = std::all_of(c.in_fov.begin() + static_cast<std::ptrdiff_t>(c.first_in),
-                              c.in_fov.begin() + static_cast<std::ptrdiff_t>(c.end_in),
-                              [](float f) { return f > 0.5f; });
+  c.span_all_in =
+    std::all_of(c.in_fov.begin() + static_cast<std::ptrdiff_t>(c.first_in),
+                c.in_fov.begin() + static_cast<std::ptrdiff_t>(c.end_in), [](float f) { return f > 0.5f; });
 }
 
 void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, const OdometryBuffer* odom,
-                       const Eigen::Isometry3d& output_T_robot, MergedScan& out,
-                       std::vector<SourceStatus>& status)
+                       const Eigen::Isometry3d& output_T_robot, MergedScan& out, std::vector<SourceStatus>& status)
 {
   const std::size_t n_src = params_.sources.size();
   status.assign(n_src, SourceStatus::kMissing);
@@ -199,7 +196,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     const Eigen::Matrix<double, 2, 4> m = rows * right.matrix();
     Eigen::Matrix<float, 2, 3> out;
     out << static_cast<float>(m(0, 0)), static_cast<float>(m(0, 1)), static_cast<float>(m(0, 3)),
-        static_cast<float>(m(1, 0)), static_cast<float>(m(1, 1)), static_cast<float>(m(1, 3));
+      static_cast<float>(m(1, 0)), static_cast<float>(m(1, 1)), static_cast<float>(m(1, 3));
     return out;
   };
   auto mount = [&](const Eigen::Isometry3d& output_T_sensor) {
@@ -238,7 +235,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
       if (group_transforms_.empty())
         group_transforms_.resize(1);
       group_transforms_[0] =
-          compensate ? sensor_at(scan.stamp, mount(in.output_T_sensor)) : planarPart(in.output_T_sensor);
+        compensate ? sensor_at(scan.stamp, mount(in.output_T_sensor)) : planarPart(in.output_T_sensor);
       addScan<false>(s, in, group_transforms_.data(), n, with_intensity);
     }
   }
@@ -327,8 +324,18 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
     }
     // The transform at the first beam handled (lo), and its per-beam step.
     const float off = static_cast<float>(lo - b0);
-    const float m_row[12] = { m00 + off * d00, m01 + off * d01, m02 + off * d02, m10 + off * d10, m11 + off * d11,
-                              m12 + off * d12, d00, d01, d02, d10, d11, d12 };
+    const float m_row[12] = { m00 + off * d00,
+                              m01 + off * d01,
+                              m02 + off * d02,
+                              m10 + off * d10,
+                              m11 + off * d11,
+                              m12 + off * d12,
+                              d00,
+                              d01,
+                              d02,
+                              d10,
+                              d11,
+                              d12 };
     projectBeams(hi - lo, ranges + lo, fov_or_all ? fov_or_all + lo : nullptr, cs + lo, sn + lo, m_row, rmin, rmax,
                  keep_too_close, amin, inv_inc, wrap, n_out, kb + lo, rb + lo);
   }

@@ -17,8 +17,8 @@ bool isNumber(const XmlRpc::XmlRpcValue& v)
 
 double toDouble(XmlRpc::XmlRpcValue& v)
 {
-  return v.getType() == XmlRpc::XmlRpcValue::TypeInt ? static_cast<double>(static_cast<int>(v)) :
-                                                         static_cast<double>(v);
+  return v.getType() == XmlRpc::XmlRpcValue::TypeInt ? static_cast<double>(static_cast<int>(v))
+                                                     : static_cast<double>(v);
 }
 
 void readDouble(const ros::NodeHandle& nh, const std::string& name, double& value)
@@ -130,8 +130,9 @@ MergerParams loadParams(const ros::NodeHandle& pnh)
 
   XmlRpc::XmlRpcValue list;
   if (!pnh.getParam("sources", list))
-    throw ParameterError("sources", "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
-                                    "range_max, deskew}");
+    throw ParameterError("sources",
+                         "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
+                         "range_max, deskew}");
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw ParameterError("sources", "must be a list of dictionaries");
   for (int i = 0; i < list.size(); ++i)
@@ -162,15 +163,14 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   for (std::size_t i = 0; i < sources_.size(); ++i)
   {
     sources_[i].sub = nh_.subscribe<sensor_msgs::LaserScan>(
-        params_.sources[i].topic, 10,
-        [this, i](const sensor_msgs::LaserScan::ConstPtr& m) { scanCallback(i, m); }, ros::VoidConstPtr(),
-        ros::TransportHints().tcpNoDelay());
+      params_.sources[i].topic, 10, [this, i](const sensor_msgs::LaserScan::ConstPtr& m) { scanCallback(i, m); },
+      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   }
   if (!params_.odom_topic.empty())
     odom_sub_ = nh_.subscribe<nav_msgs::Odometry>(
-        params_.odom_topic, std::max(10, params_.odom_queue_size),
-        [this](const nav_msgs::Odometry::ConstPtr& m) { odomCallback(m); }, ros::VoidConstPtr(),
-        ros::TransportHints().tcpNoDelay());
+      params_.odom_topic, std::max(10, params_.odom_queue_size),
+      [this](const nav_msgs::Odometry::ConstPtr& m) { odomCallback(m); }, ros::VoidConstPtr(),
+      ros::TransportHints().tcpNoDelay());
   if (params_.publish_rate > 0.0)
     publish_timer_ = nh_.createTimer(ros::Duration(1.0 / params_.publish_rate),
                                      [this](const ros::TimerEvent& e) { timerCallback(e); });
@@ -186,7 +186,8 @@ void MultiLaserScanMergerRos::checkTimeJump()
   const ros::Time now = ros::Time::now();
   if (now < last_now_)
   {
-    clearAll("time jumped backwards by " + std::to_string((last_now_ - now).toSec()) + " s (bag loop or restarted clock)");
+    clearAll("time jumped backwards by " + std::to_string((last_now_ - now).toSec()) +
+             " s (bag loop or restarted clock)");
     tf_buffer_.clear();
   }
   last_now_ = now;
@@ -214,7 +215,7 @@ bool MultiLaserScanMergerRos::tryTransform(std::size_t i, const sensor_msgs::Las
   try
   {
     sources_[i].output_T_sensor =
-        tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, msg->header.stamp));
+      tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, msg->header.stamp));
   }
   catch (const tf2::TransformException& e)
   {
@@ -235,7 +236,8 @@ void MultiLaserScanMergerRos::scanCallback(std::size_t i, const sensor_msgs::Las
   if (const char* fault = scanFault(view))
   {
     ++s.malformed;
-    ROS_WARN_THROTTLE(5.0, "%s: source '%s' (%s): malformed scan dropped: %s (%zu ranges, %zu intensities, angles "
+    ROS_WARN_THROTTLE(5.0,
+                      "%s: source '%s' (%s): malformed scan dropped: %s (%zu ranges, %zu intensities, angles "
                       "%g..%g step %g)",
                       name_.c_str(), sp.name.c_str(), sp.topic.c_str(), fault, msg->ranges.size(),
                       msg->intensities.size(), msg->angle_min, msg->angle_max, msg->angle_increment);
@@ -384,7 +386,8 @@ void MultiLaserScanMergerRos::mergeAndPublish(double t_out)
   {
     odom = &odom_;
     if (t_out - odom_.newestTime() > kOdometryStale)
-      ROS_WARN_THROTTLE(5.0, "%s: odometry stopped: the newest is %.2f s older than the output time; motion after it "
+      ROS_WARN_THROTTLE(5.0,
+                        "%s: odometry stopped: the newest is %.2f s older than the output time; motion after it "
                         "is not compensated",
                         name_.c_str(), t_out - odom_.newestTime());
   }
@@ -414,7 +417,7 @@ void MultiLaserScanMergerRos::mergeAndPublish(double t_out)
   msg->angle_min = static_cast<float>(params_.output.angle_min);
   msg->angle_increment = static_cast<float>(params_.output.angle_increment);
   msg->angle_max =
-      static_cast<float>(params_.output.angle_min + (core_->beamCount() - 1) * params_.output.angle_increment);
+    static_cast<float>(params_.output.angle_min + (core_->beamCount() - 1) * params_.output.angle_increment);
   msg->time_increment = 0.0f;  // every beam is synchronised to the stamp
   msg->scan_time = params_.publish_rate > 0.0 ? static_cast<float>(1.0 / params_.publish_rate) : 0.0f;
   msg->range_min = static_cast<float>(params_.output.range_min);

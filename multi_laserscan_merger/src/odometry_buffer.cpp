@@ -97,8 +97,8 @@ bool OdometryBuffer::poseAt(double t, Pose& out) const
     return true;
   }
   // First entry with time > t; its predecessor has time <= t.
-  const auto it = std::upper_bound(entries_.begin(), entries_.end(), t,
-                                   [](double v, const Entry& e) { return v < e.t; });
+  const auto it =
+    std::upper_bound(entries_.begin(), entries_.end(), t, [](double v, const Entry& e) { return v < e.t; });
   const Entry& e2 = *it;
   const Entry& e1 = *(it - 1);
   const double u = (t - e1.t) / (e2.t - e1.t);

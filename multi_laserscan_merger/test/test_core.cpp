@@ -67,7 +67,7 @@ Eigen::Isometry3d pose(double x, double y, double z, double roll, double pitch, 
   t.translation() = Eigen::Vector3d(x, y, z);
   t.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
                 Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
-                   .toRotationMatrix();
+                 .toRotationMatrix();
   return t;
 }
 
@@ -334,9 +334,9 @@ TEST(FieldOfView, SourceRangeLimits)
   p.sources[0].range_max = 4.0;
   MergerCore core(p);
   Scan s{ std::vector<float>(360, 2.0f), {} };
-  s.ranges[0] = 0.3f;     // below the source's range_min: invalid, marked NaN
-  s.ranges[1] = 5.0f;     // beyond range_max: no return
-  s.ranges[2] = -kInfF;   // too close, inside the tightened limit: ignored like the body
+  s.ranges[0] = 0.3f;    // below the source's range_min: invalid, marked NaN
+  s.ranges[1] = 5.0f;    // beyond range_max: no return
+  s.ranges[2] = -kInfF;  // too close, inside the tightened limit: ignored like the body
   MergedScan out;
   std::vector<SourceStatus> st;
   core.merge({ input(s.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
@@ -394,8 +394,7 @@ TEST(Transform, UpsideDownLidarIsMirrored)
   ASSERT_NEAR(s.angle(270), kPi / 2, 1e-9);
   MergedScan out;
   std::vector<SourceStatus> st;
-  core.merge({ input(s.view(), pose(0.2, 0.1, 0.4, kPi, 0, 0)) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out,
-             st);
+  core.merge({ input(s.view(), pose(0.2, 0.1, 0.4, kPi, 0, 0)) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
   // Upside down (roll pi): the sensor's left is the robot's right.
   const double x = 0.2, y = 0.1 - 2.0;
   EXPECT_NEAR(out.ranges[binOf(std::atan2(y, x))], std::hypot(x, y), 1e-4);
@@ -406,8 +405,8 @@ TEST(Transform, UpsideDownLidarIsMirrored)
 
   // Every beam of a full scan against the analytic mirror.
   Scan full{ std::vector<float>(360, 1.5f), {} };
-  core.merge({ input(full.view(), pose(0.2, 0.1, 0.4, kPi, 0, 0.3)) }, 0.0, nullptr, Eigen::Isometry3d::Identity(),
-             out, st);
+  core.merge({ input(full.view(), pose(0.2, 0.1, 0.4, kPi, 0, 0.3)) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out,
+             st);
   for (std::size_t i = 0; i < 360; ++i)
   {
     const double a = full.angle(i);
@@ -682,8 +681,8 @@ TEST(Fusion, OutputLimitsAndUseInf)
   MergedScan out;
   std::vector<SourceStatus> st;
   core.merge({ input(a.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
-  EXPECT_EQ(out.ranges[0], 3.0f);   // beyond range_max: no return = range_max + inf_epsilon
-  EXPECT_EQ(out.ranges[1], 3.0f);   // a gap: no return
+  EXPECT_EQ(out.ranges[0], 3.0f);    // beyond range_max: no return = range_max + inf_epsilon
+  EXPECT_EQ(out.ranges[1], 3.0f);    // a gap: no return
   EXPECT_EQ(out.ranges[4], -kInfF);  // closer than range_min: too close
   EXPECT_TRUE(std::isnan(out.ranges[8]));
   EXPECT_NEAR(out.ranges[12], 2.0f, 1e-5);

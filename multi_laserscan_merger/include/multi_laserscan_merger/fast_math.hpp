@@ -17,8 +17,8 @@ inline float fastAtan2(float y, float x)
   const float mn = ax > ay ? ay : ax;
   const float a = mn / (mx > 1e-30f ? mx : 1e-30f);
   const float s = a * a;
-  float r = ((((-0.01172077f * s + 0.05265143f) * s - 0.11643014f) * s + 0.19354178f) * s - 0.33262304f) * s +
-            0.99997723f;
+  float r =
+    ((((-0.01172077f * s + 0.05265143f) * s - 0.11643014f) * s + 0.19354178f) * s - 0.33262304f) * s + 0.99997723f;
   r *= a;
   r = ay > ax ? 1.57079632679f - r : r;
   r = x < 0.0f ? 3.14159265359f - r : r;

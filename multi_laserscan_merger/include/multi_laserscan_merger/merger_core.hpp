@@ -72,7 +72,7 @@ struct SourceInput
 
 enum class SourceStatus : std::uint8_t
 {
-  kMissing,   ///< no scan yet
+  kMissing,  ///< no scan yet
   kUsed,
   kTimedOut,  ///< older than the source's timeout relative to the output time
   kInvalid    ///< scanFault() found a fault
@@ -116,7 +116,7 @@ private:
     std::vector<float> cos_a, sin_a;
     std::size_t first_in = 0, end_in = 0;  ///< span of beams from the first to the last inside the mask
     bool span_all_in = false;              ///< every beam of the span is inside the mask
-    std::vector<float> in_fov;  ///< 1 inside the source's mask (float: keeps the hot loop vectorisable)
+    std::vector<float> in_fov;             ///< 1 inside the source's mask (float: keeps the hot loop vectorisable)
   };
   void updateCache(std::size_t source, const ScanView& scan);
   template <bool kInterpolate>

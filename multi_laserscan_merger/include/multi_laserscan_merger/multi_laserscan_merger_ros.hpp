@@ -37,7 +37,7 @@ public:
 private:
   struct SourceState
   {
-    sensor_msgs::LaserScan::ConstPtr scan;     ///< latest accepted scan
+    sensor_msgs::LaserScan::ConstPtr scan;  ///< latest accepted scan
     Eigen::Isometry3d output_T_sensor = Eigen::Isometry3d::Identity();
     sensor_msgs::LaserScan::ConstPtr pending;  ///< waiting for its transform
     ros::WallTime pending_since;

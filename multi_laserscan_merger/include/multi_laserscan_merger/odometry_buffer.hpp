@@ -28,11 +28,11 @@ class OdometryBuffer
 public:
   enum class AddResult
   {
-    kAdded,              ///< appended (or replaced an entry with the same time)
-    kOutOfOrder,         ///< older than the newest entry by less than the jump threshold: ignored
-    kClearedBackwards,   ///< older by the jump threshold or more (time jumped back, e.g. a bag
-                         ///< played in a loop): the buffer was cleared, then this entry kept
-    kRejected            ///< non-finite time/position or degenerate quaternion: ignored
+    kAdded,             ///< appended (or replaced an entry with the same time)
+    kOutOfOrder,        ///< older than the newest entry by less than the jump threshold: ignored
+    kClearedBackwards,  ///< older by the jump threshold or more (time jumped back, e.g. a bag
+                        ///< played in a loop): the buffer was cleared, then this entry kept
+    kRejected           ///< non-finite time/position or degenerate quaternion: ignored
   };
 
   /// capacity: entries kept (oldest dropped first). jump_back_threshold (s): a message
@@ -66,7 +66,8 @@ private:
   };
   std::size_t capacity_;
   double jump_back_threshold_;
-  std::vector<Entry> entries_;  ///< contiguous: the look-up (hot) is a binary search; dropping the oldest moves <= capacity entries at odometry rate
+  std::vector<Entry> entries_;  ///< contiguous: the look-up (hot) is a binary search; dropping the oldest moves <=
+                                ///< capacity entries at odometry rate
 };
 
 }  // namespace multi_laserscan_merger

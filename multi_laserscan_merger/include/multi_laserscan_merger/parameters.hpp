@@ -21,8 +21,7 @@ class ParameterError : public std::invalid_argument
 public:
   ParameterError(const std::string& parameter, const std::string& reason)
     : std::invalid_argument(parameter + ": " + reason), parameter_(parameter), reason_(reason)
-  {
-  }
+  {}
   const std::string& parameter() const { return parameter_; }
   const std::string& reason() const { return reason_; }
 
@@ -34,14 +33,14 @@ private:
 /// Geometry and limits of the merged scan (REP 117 conventions).
 struct OutputParams
 {
-  std::string frame = "base_link";   ///< output_frame
-  double angle_min = -kPi;           ///< rad
-  double angle_max = kPi;            ///< rad
+  std::string frame = "base_link";       ///< output_frame
+  double angle_min = -kPi;               ///< rad
+  double angle_max = kPi;                ///< rad
   double angle_increment = kPi / 720.0;  ///< rad
-  double range_min = 0.0;            ///< m, planar distance from the output frame's origin
-  double range_max = 30.0;          ///< m (finite: consumers use it to clear along no-return beams)
-  bool use_inf = true;               ///< false: "no return" = range_max + inf_epsilon
-  double inf_epsilon = 1.0;          ///< m
+  double range_min = 0.0;                ///< m, planar distance from the output frame's origin
+  double range_max = 30.0;               ///< m (finite: consumers use it to clear along no-return beams)
+  bool use_inf = true;                   ///< false: "no return" = range_max + inf_epsilon
+  double inf_epsilon = 1.0;              ///< m
 
   /// Number of beams by the fencepost rule: round((max - min) / increment) + 1.
   std::size_t beamCount() const;
@@ -52,17 +51,17 @@ struct OutputParams
 /// One input scan source.
 struct SourceParams
 {
-  std::string name;                 ///< unique; used in messages and diagnostics
-  std::string topic;                ///< required
-  double timeout = 1.0;             ///< s; a scan older than this relative to the output time is left out
+  std::string name;      ///< unique; used in messages and diagnostics
+  std::string topic;     ///< required
+  double timeout = 1.0;  ///< s; a scan older than this relative to the output time is left out
   /// Field-of-view mask in the sensor's own frame (rad). angle_min > angle_max
   /// means the mask wraps around +-pi (e.g. 2.5 .. -2.5 keeps the rear sector).
   /// A span of 2*pi or more keeps everything.
   double angle_min = -kPi;
   double angle_max = kPi;
-  double range_min = 0.0;           ///< m; only tightens the message's own range_min
-  double range_max = kInf;          ///< m; only tightens the message's own range_max
-  bool deskew = false;              ///< move every beam from its own time (time_increment)
+  double range_min = 0.0;   ///< m; only tightens the message's own range_min
+  double range_max = kInf;  ///< m; only tightens the message's own range_max
+  bool deskew = false;      ///< move every beam from its own time (time_increment)
 
   /// Throws ParameterError; `prefix` is e.g. "sources[1]".
   void validate(const std::string& prefix) const;
