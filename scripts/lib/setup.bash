@@ -11,7 +11,7 @@ SYSTEM_PYTHON=/usr/bin/python3
 # Everything comes from Debian 12's own archive (ROS 1 as Debian ships it).
 DEBIAN_PACKAGES=(
   # build tools and the ROS 1 core
-  build-essential cmake catkin catkin-lint ros-core-dev rosbash python3-catkin-pkg
+  build-essential cmake git clang-format catkin catkin-lint ros-core-dev rosbash python3-catkin-pkg
   # C++ libraries of the nodelets
   libroscpp-dev libnodeletlib-dev libnodelet-dev libnodeletlib-tools pluginlib-dev
   libtf2-ros-dev libtf2-eigen-dev libtf2-sensor-msgs-dev tf2-tools libeigen3-dev
