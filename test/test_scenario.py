@@ -1,0 +1,191 @@
+"""The built-in scenario: ground truth, determinism, and a short simulated bag."""
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
+from laserscan_toolbox.scenario import Scenario, TOPICS  # noqa: E402
+
+import rosbag  # noqa: E402
+
+DURATION = 3.0
+
+
+@pytest.fixture(scope="module")
+def short_bag(tmp_path_factory):
+    sc = Scenario.default(seed=3, duration=DURATION, camera_points=3000)
+    path = str(tmp_path_factory.mktemp("sim") / "short.bag")
+    stats = sc.simulate(path, progress=False)
+    msgs = {}
+    with rosbag.Bag(path) as bag:
+        for topic, msg, t in bag.read_messages():
+            msgs.setdefault(topic, []).append((msg, t.to_sec()))
+        conns = {c.topic: c for c in bag._get_connections()}
+    return sc, path, stats, msgs, conns
+
+
+def test_yaml_round_trip_is_exact():
+    sc = Scenario.default(seed=5, duration=4.0, camera_points=5000)
+    text = sc.to_yaml()
+    sc2 = Scenario.from_yaml(text)
+    assert sc2.to_yaml() == text
+    assert sc2.duration == sc.duration and sc2.start_time == sc.start_time
+    t = sc.start_time + np.linspace(0, 4, 17)
+    assert np.array_equal(np.array(sc.true_pose(t)), np.array(sc2.true_pose(t)))
+
+
+def test_default_lap_and_motion_limits():
+    sc = Scenario.default()
+    assert 40.0 <= sc.duration <= 65.0
+    t = sc.start_time + np.arange(0, sc.duration, 0.01)
+    x, y, yaw = sc.true_pose(t)
+    v = np.hypot(np.diff(x), np.diff(y)) / 0.01
+    w = np.abs(np.diff(np.unwrap(yaw))) / 0.01
+    assert v.max() <= 0.6 + 1e-3 and w.max() <= 0.8 + 1e-3
+    # there and back: ends where it started, after going more than 10 m away
+    assert math.hypot(x[-1] - x[0], y[-1] - y[0]) < 0.1
+    assert np.hypot(x - x[0], y - y[0]).max() > 10.0
+    # with turns: the heading covers more than 180 degrees
+    assert np.ptp(np.unwrap(yaw)) > math.pi
+
+
+def test_ideal_scan_geometry():
+    sc = Scenario.default()
+    # At (10, 7.5) facing +x, 0.05..1 m band: straight down -y the crosser may pass, so
+    # use a pose and time away from people: at (2, 7.5) facing west the west wall is 2 m away.
+    r = sc.ideal_scan(sc.start_time, -math.pi, math.pi, math.radians(1), 0.0, 30.0, 0.05, 1.0,
+                      pose=(2.0, 7.5, math.pi))
+    assert len(r) == 361
+    assert r[180] == pytest.approx(2.0, abs=1e-9)            # beam 0 rad = facing the wall
+    # Table 1 (top 5.4..6.6 x 5.9..6.7 at 0.71..0.75): from (6, 7.5) looking -y (beam -90 deg,
+    # robot facing +x) the top's edge is 0.8 m away in a 0.05..1 m band; in a lidar band
+    # 0.15..0.25 m only the far shelf/wall remain (legs are at x = 5.46 and 6.54).
+    pose = (6.0, 7.5, 0.0)
+    band = sc.ideal_scan(sc.start_time, -math.pi / 2, -math.pi / 2, 1.0, 0.0, 30.0, 0.05, 1.0, pose=pose)
+    low = sc.ideal_scan(sc.start_time, -math.pi / 2, -math.pi / 2, 1.0, 0.0, 30.0, 0.15, 0.25, pose=pose)
+    assert band[0] == pytest.approx(0.8, abs=1e-9)
+    assert low[0] > 1.5
+    # range limits: +inf beyond range_max, -inf inside range_min
+    r = sc.ideal_scan(sc.start_time, 0.0, 0.0, 1.0, 2.5, 30.0, 0.05, 1.0, pose=(2.0, 7.5, math.pi))
+    assert r[0] == -np.inf
+    r = sc.ideal_scan(sc.start_time, 0.0, 0.0, 1.0, 0.0, 1.5, 0.05, 1.0, pose=(2.0, 7.5, math.pi))
+    assert r[0] == np.inf
+
+
+def test_ground_truth_grid_has_table_tops_only_in_their_band():
+    sc = Scenario.default()
+    res = 0.05
+    high, (x0, y0) = sc.ground_truth_grid(res, 0.05, 1.0)
+    low, _ = sc.ground_truth_grid(res, 0.15, 0.25)
+    cx, cy = int((6.0 - x0) / res), int((6.3 - y0) / res)   # centre of table 1's top
+    assert high[cy, cx] and not low[cy, cx]
+    wx = int((10.0 - x0) / res)
+    assert high[int((-0.05 - y0) / res), wx] and low[int((-0.05 - y0) / res), wx]  # south wall
+
+
+def test_same_seed_same_data_other_seed_differs():
+    rng = np.random.default_rng
+    a = Scenario.default(seed=1, duration=2.0, camera_points=2000)
+    b = Scenario.default(seed=1, duration=2.0, camera_points=2000)
+    la, lb = a.robot.lidars[0], b.robot.lidars[0]
+    assert np.array_equal(a.lidar_scan(la, 1.0, rng(1)), b.lidar_scan(lb, 1.0, rng(1)))
+    ca, cb = a.robot.cameras[0], b.robot.cameras[0]
+    assert np.array_equal(a.depth_image(ca, 1.0, rng(1)), b.depth_image(cb, 1.0, rng(1)))
+    assert not np.array_equal(a.lidar_scan(la, 1.0, rng(1)), a.lidar_scan(la, 1.0, rng(2)))
+
+
+def test_bag_topics_and_rates(short_bag):
+    sc, path, stats, msgs, conns = short_bag
+    for key in ("lidar_front", "lidar_rear", "camera_left_depth", "camera_left_info",
+                "camera_right_depth", "camera_right_info", "odom", "tf", "tf_static",
+                "ground_truth", "scenario"):
+        assert TOPICS[key] in msgs, key
+
+    def rate(topic):
+        st = np.array([m.header.stamp.to_sec() for m, _ in msgs[topic]])
+        return 1.0 / np.median(np.diff(st))
+    assert rate(TOPICS["lidar_front"]) == pytest.approx(8.0, rel=1e-3)
+    assert rate(TOPICS["lidar_rear"]) == pytest.approx(8.0, rel=1e-3)
+    assert rate(TOPICS["camera_left_depth"]) == pytest.approx(14.0, rel=1e-3)
+    assert rate(TOPICS["camera_right_depth"]) == pytest.approx(14.0, rel=1e-3)
+    assert rate(TOPICS["odom"]) == pytest.approx(50.0, rel=1e-3)
+    # messages are stamped in sim time from the scenario's start
+    first = min(t for v in msgs.values() for _, t in v)
+    assert first == pytest.approx(sc.start_time)
+
+
+def test_lidar_scan_fields(short_bag):
+    sc, _, _, msgs, _ = short_bag
+    m, bag_t = msgs[TOPICS["lidar_front"]][3]
+    assert len(m.ranges) == round((m.angle_max - m.angle_min) / m.angle_increment) + 1 == 360
+    assert m.scan_time == pytest.approx(0.125)
+    assert m.time_increment == pytest.approx(0.125 / 360)
+    assert bag_t >= m.header.stamp.to_sec() + m.scan_time  # published after its last beam
+    r = np.array(m.ranges)
+    # the body hides the sector behind the corner lidar (|angle| > ~137 deg in its frame)
+    ang = m.angle_min + np.arange(360) * m.angle_increment
+    behind = np.abs(ang) > math.radians(138)
+    assert np.all(r[behind] < 0.9)
+    assert np.isneginf(r[behind]).any()          # beams into the corner: closer than range_min
+    front = np.abs(ang) < math.radians(130)
+    assert not np.isneginf(r[front]).any() and (r[front] > 0.9).mean() > 0.95
+
+
+def test_depth_image_and_info(short_bag):
+    _, _, _, msgs, _ = short_bag
+    img, _ = msgs[TOPICS["camera_left_depth"]][0]
+    info, _ = msgs[TOPICS["camera_left_info"]][0]
+    assert img.encoding == "16UC1" and img.step == 2 * img.width
+    assert info.header.stamp == img.header.stamp and info.header.frame_id == img.header.frame_id
+    assert abs(img.width * img.height - 3000) < 100
+    d = np.frombuffer(img.data, "<u2").reshape(img.height, img.width)
+    assert (d > 0).mean() > 0.8 and d.max() <= 8000
+
+
+def test_tf_chain_and_latched_static(short_bag):
+    sc, _, _, msgs, conns = short_bag
+    assert conns[TOPICS["tf_static"]].header.get("latching") in ("1", b"1")
+    assert conns[TOPICS["scenario"]].header.get("latching") in ("1", b"1")
+    static = {(t.header.frame_id, t.child_frame_id) for m, _ in msgs[TOPICS["tf_static"]] for t in m.transforms}
+    dynamic = {(t.header.frame_id, t.child_frame_id) for m, _ in msgs[TOPICS["tf"]] for t in m.transforms}
+    assert ("odom", "base_link") in dynamic
+    for L in sc.robot.lidars:
+        assert ("base_link", L.frame) in static
+    for C in sc.robot.cameras:
+        assert ("base_link", C.tilt_frame) in dynamic        # the servo moves
+        assert (C.tilt_frame, C.optical_frame) in static
+    # the servo's pitch really changes over the bag
+    qs = [t.transform.rotation.y for m, _ in msgs[TOPICS["tf"]] for t in m.transforms
+          if t.child_frame_id == sc.robot.cameras[0].tilt_frame]
+    assert np.ptp(qs) > 0.05
+    # every sensor frame is reachable from odom
+    reach = {"odom"}
+    for _ in range(3):
+        reach |= {c for p, c in static | dynamic if p in reach}
+    frames = {m.header.frame_id for k in ("lidar_front", "camera_left_depth") for m, _ in msgs[TOPICS[k]]}
+    assert frames <= reach
+
+
+def test_odometry_drifts_but_tracks(short_bag):
+    sc, _, _, msgs, _ = short_bag
+    odom = msgs[TOPICS["odom"]]
+    gt = msgs[TOPICS["ground_truth"]]
+    assert odom[0][0].header.frame_id == "odom" and gt[0][0].header.frame_id == "map"
+    # odom starts at the identity; its displacement matches the truth within a few percent
+    x0, y0, _ = sc.true_pose(sc.start_time)
+    m, _ = odom[-1]
+    g = sc.true_pose(m.header.stamp.to_sec())
+    true_d = math.hypot(g[0] - x0, g[1] - y0)
+    odo_d = math.hypot(m.pose.pose.position.x, m.pose.pose.position.y)
+    assert true_d > 0.3
+    assert odo_d == pytest.approx(true_d, rel=0.1)
+    assert odo_d != true_d
+
+
+def test_scenario_round_trips_from_bag(short_bag):
+    sc, path, _, _, _ = short_bag
+    sc2 = Scenario.from_bag(path)
+    assert sc2.to_yaml() == sc.to_yaml()
