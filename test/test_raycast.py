@@ -133,6 +133,9 @@ def test_band_scan_known_geometry():
 def test_render_depth_matches_brute_force():
     """The culled renderer gives exactly the plain cast of every pixel."""
     w = _small_world()
+    w.boxes.append(Box("rotated_crate", (3.0, -0.8, 0.4), (0.6, 0.4, 0.8), 0.7))
+    w.boxes.append(Box("aligned_with_ray", (4.0, 0.0, 0.3), (0.2, 0.2, 0.6), 0.0))
+    w._pack()
     fx = fy = 50.0
     rot = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])  # optical -> world, level
     pitch = math.radians(20)

@@ -167,6 +167,29 @@ def pixel_rays(width, height, fx, fy, cx, cy):
     return np.stack([uu, vv, np.ones_like(uu)], axis=-1)
 
 
+def _one_box_from_point(rel, d, inv, half):
+    """Distances (n,) from one origin (``rel`` = origin - box centre, in the box's
+    frame) along directions d (n, 3) (with inv = 1 / d, zeros replaced by 1) to
+    one box.  Same result as ``ray_boxes`` but with scalar slab bounds per axis,
+    which makes a camera frame (a single origin) several times cheaper."""
+    tnear = np.full(len(d), -np.inf)
+    tfar = np.full(len(d), np.inf)
+    for a in range(3):
+        t1 = (-half[a] - rel[a]) * inv[:, a]
+        t2 = (half[a] - rel[a]) * inv[:, a]
+        lo = np.minimum(t1, t2)
+        hi = np.maximum(t1, t2)
+        zero = d[:, a] == 0.0
+        if zero.any():
+            inside = -half[a] <= rel[a] <= half[a]
+            lo[zero] = -np.inf if inside else np.inf
+            hi[zero] = np.inf
+        np.maximum(tnear, lo, out=tnear)
+        np.minimum(tfar, hi, out=tfar)
+    hit = (tnear <= tfar) & (tfar > EPS)
+    return np.where(hit, np.where(tnear > EPS, tnear, tfar), np.inf)
+
+
 def _pixel_window(corners_cam, fx, fy, cx, cy, width, height, near):
     """Pixel rectangle that holds the projection of a convex solid, or None.
 
@@ -230,8 +253,15 @@ def render_depth(solids, floor_holes, ceiling, cam_rotation, cam_position, intri
         sub = dirs_img[v0:v1 + 1, u0:u1 + 1].reshape(-1, 3)
         o = np.broadcast_to(origin, sub.shape)
         if k < n_box:
-            t = ray_boxes(o, sub, solids["box_c"][k:k + 1], solids["box_h"][k:k + 1],
-                          solids["box_yaw"][k:k + 1])[:, 0]
+            yaw = solids["box_yaw"][k]
+            rel = origin[0] - solids["box_c"][k]
+            if yaw != 0.0:
+                cs, sn = np.cos(yaw), np.sin(yaw)
+                rel = np.array([cs * rel[0] + sn * rel[1], -sn * rel[0] + cs * rel[1], rel[2]])
+                sub = np.column_stack([cs * sub[:, 0] + sn * sub[:, 1],
+                                       -sn * sub[:, 0] + cs * sub[:, 1], sub[:, 2]])
+            inv = 1.0 / np.where(sub == 0.0, 1.0, sub)
+            t = _one_box_from_point(rel, sub, inv, solids["box_h"][k])
         else:
             j = k - n_box
             t = ray_vcylinders(o, sub, solids["cyl_xy"][j:j + 1], solids["cyl_r"][j:j + 1],

@@ -161,12 +161,19 @@ class World:
         origins = np.asarray(origins, float)
         directions = np.asarray(directions, float)
         t = raycast.ray_floor_ceiling(origins, directions, self.hole_arr, self.ceiling)
-        if len(self.boxes):
-            t = np.minimum(t, raycast.ray_boxes(origins, directions, self.box_c, self.box_h,
-                                                self.box_yaw).min(axis=1))
-        if len(self.cylinders):
-            t = np.minimum(t, raycast.ray_vcylinders(origins, directions, self.cyl_xy, self.cyl_r,
-                                                     self.cyl_z0, self.cyl_z1).min(axis=1))
+        boxes = np.ones(len(self.boxes), bool)
+        cyls = np.ones(len(self.cylinders), bool)
+        z = origins[:, 2]
+        if len(origins) and np.all(directions[:, 2] == 0.0) and np.all(z == z[0]):
+            # Level rays at one height (a 2D lidar) can only meet solids spanning that height.
+            boxes = np.abs(self.box_c[:, 2] - z[0]) <= self.box_h[:, 2]
+            cyls = (self.cyl_z0 <= z[0]) & (self.cyl_z1 >= z[0])
+        if boxes.any():
+            t = np.minimum(t, raycast.ray_boxes(origins, directions, self.box_c[boxes], self.box_h[boxes],
+                                                self.box_yaw[boxes]).min(axis=1))
+        if cyls.any():
+            t = np.minimum(t, raycast.ray_vcylinders(origins, directions, self.cyl_xy[cyls], self.cyl_r[cyls],
+                                                     self.cyl_z0[cyls], self.cyl_z1[cyls]).min(axis=1))
         if self.people:
             rel_times = np.broadcast_to(np.asarray(rel_times, float), (len(origins),))
             uniq, inv = np.unique(rel_times, return_inverse=True)
