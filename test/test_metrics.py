@@ -124,3 +124,15 @@ def test_rate_latency_and_iou():
     a[0, :2] = True
     b[0, 1:3] = True
     assert metrics.grid_iou(a, b) == pytest.approx(1 / 3)
+
+
+def test_relative_tolerance_and_range_limit():
+    ideal = np.full(10, 8.0)
+    out = np.full(10, 7.8)  # 20 cm short at 8 m: range noise, not a phantom
+    assert metrics.scan_metrics(out, ideal, tol=0.05, beam_window=0)["false"] == 10
+    assert metrics.scan_metrics(out, ideal, tol=0.05, rel_tol=0.03, beam_window=0)["false"] == 0
+    out[0] = 2.0  # a phantom stays one
+    assert metrics.scan_metrics(out, ideal, tol=0.05, rel_tol=0.03, beam_window=0)["false"] == 1
+    # a wall at 8.1 m beyond an 8 m range limit: the output seeing nothing did not miss it
+    s = metrics.scan_metrics(np.full(10, np.inf), np.full(10, 8.1), range_max=8.0)
+    assert s["missed"] == 0 and s["ideal_returns"] == 0

@@ -372,7 +372,7 @@ def band_from_configs(config_dir):
 
 
 def ground_truth_stats(run, bag_info, scenario, band, tol=0.05, beam_window=1,
-                       max_scans=300, lidar_band=0.02):
+                       max_scans=300, lidar_band=0.02, rel_tol=0.03):
     """Accuracy of every recorded LaserScan against the scenario's ideal scans.
 
     band: (floor_height in base_link, min_height, max_height) of the robot's obstacle band.
@@ -419,21 +419,24 @@ def ground_truth_stats(run, bag_info, scenario, band, tol=0.05, beam_window=1,
             x, y, yaw = scenario.true_pose(s["stamp"])
             pose = (x + math.cos(yaw) * dx - math.sin(yaw) * dy,
                     y + math.sin(yaw) * dx + math.cos(yaw) * dy, yaw + dyaw)
+            reach = s["range_max"] + tol + rel_tol * s["range_max"]
             ideal = scenario.ideal_scan(s["stamp"], s["angle_min"], s["angle_max"],
-                                        s["angle_increment"], s["range_min"], s["range_max"],
+                                        s["angle_increment"], s["range_min"], reach,
                                         z_min, z_max, pose=pose)
             ideal = np.asarray(ideal, float)
             if ideal.shape != s["ranges"].shape:
                 skipped += 1
                 continue
-            st.add(metrics.compare_scan(s["ranges"], ideal, tol, beam_window, mask=seen))
+            st.add(metrics.compare_scan(s["ranges"], ideal, tol, beam_window, mask=seen,
+                                        rel_tol=rel_tol, range_max=s["range_max"]))
             if i == idx[len(idx) // 2]:
                 examples[topic] = {"ranges": s["ranges"].tolist(), "ideal": ideal.tolist(),
                                    "angle_min": s["angle_min"],
                                    "angle_increment": s["angle_increment"],
                                    "stamp": s["stamp"], "frame": frame}
         summ = st.summary()
-        summ.update({"frame": frame, "z_band": [z_min, z_max], "skipped": skipped,
+        summ.update({"frame": frame, "z_band": [z_min, z_max], "skipped_scans": skipped,
+                     "tolerance": [tol, rel_tol],
                      "field_of_view_beams": int(seen.sum()), "beams_per_scan": n})
         results[topic] = summ
     return results, examples
@@ -485,6 +488,7 @@ def check_thresholds(results, options, topics):
 def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, output=None,
              rate=1.0, progress=True, thresholds=None, threshold_topics=None,
              band=None, tol=0.05, beam_window=1, max_scans=300, plots=True, workdir=None,
+             rel_tol=0.03,
              log=print, map_topics=("/lidar_scan", "/merged_scan"), map_resolution=0.05,
              save_scans=False):
     """Runs everything and writes results.json (+ report.md and plots when ``plots``)."""
@@ -521,14 +525,15 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
         band = band or (0.0, 0.05, 1.0)
         results["band"] = list(band)
         results["accuracy"], examples = ground_truth_stats(
-            run, info, scenario, band, tol=tol, beam_window=beam_window, max_scans=max_scans)
+            run, info, scenario, band, tol=tol, beam_window=beam_window, max_scans=max_scans,
+            rel_tol=rel_tol)
         # the sources that come straight from the bag (lidars), judged the same way
         inputs = [t for t, v in info["topics"].items()
                   if v["type"] == "sensor_msgs/LaserScan" and t not in run["records"]]
         if inputs:
             acc_in, _ = ground_truth_stats({"records": bag_scans(bag, inputs)}, info, scenario,
                                            band, tol=tol, beam_window=beam_window,
-                                           max_scans=max_scans)
+                                           max_scans=max_scans, rel_tol=rel_tol)
             for t, a in acc_in.items():
                 a["input"] = True
                 results["accuracy"][t] = a
@@ -662,7 +667,9 @@ def main(argv=None):
                    help="obstacle band for the ideal scan: floor z in base_link and band "
                         "above the floor, m (default: from the converter YAML)")
     p.add_argument("--tolerance", type=float, default=0.05,
-                   help="range tolerance for false/missed obstacles, m (default 0.05)")
+                   help="range tolerance for false/missed obstacles, m (default 0.05) ...")
+    p.add_argument("--relative-tolerance", type=float, default=0.03,
+                   help="... plus this fraction of the range (default 0.03)")
     p.add_argument("--beam-window", type=int, default=1,
                    help="beams either side searched when matching ranges (default 1)")
     p.add_argument("--max-scans", type=int, default=300,
@@ -701,7 +708,7 @@ def main(argv=None):
                        thresholds, a.threshold_topics, a.band, a.tolerance, a.beam_window,
                        a.max_scans, plots=not a.no_plots,
                        log=lambda m: print(m, file=sys.stderr), map_topics=a.map_topics,
-                       save_scans=a.save_scans)
+                       save_scans=a.save_scans, rel_tol=a.relative_tolerance)
     except RunError as e:
         print("evaluate_bag: %s" % e, file=sys.stderr)
         return 3

@@ -10,10 +10,15 @@ Definitions (documented in docs/tools.md, used by evaluate_bag and the tests):
   j in [i-k, i+k], so an obstacle edge that falls one beam off is not counted as a
   metre-sized error.
 - false obstacle: the output has a return r on beam i while the ideal scan has nothing
-  at or before r + tol on beams i-k..i+k (the output claims free space is blocked).
-- missed obstacle: the ideal scan has an obstacle at d on beam i while the output has
-  nothing at or before d + tol on beams i-k..i+k. Only beams in ``mask`` count
-  (e.g. a camera's field of view).
+  at or before r + tol(r) on beams i-k..i+k (the output claims free space is blocked).
+- missed obstacle: the ideal scan has an obstacle at d <= range_max on beam i while the
+  output has nothing at or before d + tol(d) on beams i-k..i+k. Only beams in ``mask``
+  count (e.g. a camera's field of view).
+- tol(r) = tol + rel_tol * r: sensors' range noise grows with range (depth cameras
+  roughly with its square), and a closest-point scan is biased short by that noise; a
+  phantom floor, ceiling or ghost is off by far more. Give the ideal scan a little more
+  range than the output (range_max + tol(range_max)) so a wall just beyond range_max
+  that noise brings inside is not a false obstacle.
 - coverage: fraction of beams in ``mask`` with a return in the output.
 """
 
@@ -87,7 +92,8 @@ def summarize(errors, beams, returns, ideal_returns, false, missed, scans=1):
     }
 
 
-def compare_scan(output, ideal, tol=0.05, beam_window=1, mask=None):
+def compare_scan(output, ideal, tol=0.05, beam_window=1, mask=None, rel_tol=0.0,
+                 range_max=np.inf):
     """Per-scan outcomes of ``output`` against ``ideal`` (see module docstring).
 
     Returns a dict with the error array and counts; ``summarize`` / ``ScanStats`` turn
@@ -98,8 +104,8 @@ def compare_scan(output, ideal, tol=0.05, beam_window=1, mask=None):
     if out.shape != ide.shape or out.ndim != 1:
         raise ValueError("output and ideal must be 1-D arrays of the same length "
                          "(got %s and %s)" % (out.shape, ide.shape))
-    if tol < 0 or beam_window < 0:
-        raise ValueError("tol and beam_window must be >= 0")
+    if tol < 0 or beam_window < 0 or rel_tol < 0:
+        raise ValueError("tol, rel_tol and beam_window must be >= 0")
     m = np.ones(out.shape, bool) if mask is None else np.asarray(mask, bool)
     if m.shape != out.shape:
         raise ValueError("mask must have the scan's length")
@@ -118,13 +124,15 @@ def compare_scan(output, ideal, tol=0.05, beam_window=1, mask=None):
 
     nearest_ideal = np.min(ide_win, axis=0)
     nearest_out = np.min(out_win, axis=0)
-    false = out_ret & m & ~(nearest_ideal <= out_v + tol)
-    missed = ide_ret & m & ~(nearest_out <= ide_v + tol)
+    with np.errstate(invalid="ignore"):  # 0 * inf on beams without a return, masked below
+        false = out_ret & m & ~(nearest_ideal <= out_v + tol + rel_tol * out_v)
+        in_range = ide_ret & (ide_v <= range_max)
+        missed = in_range & m & ~(nearest_out <= ide_v + tol + rel_tol * ide_v)
     return {
         "errors": errors,
         "beams": int(m.sum()),
         "returns": int((out_ret & m).sum()),
-        "ideal_returns": int((ide_ret & m).sum()),
+        "ideal_returns": int((in_range & m).sum()),
         "false": int(false.sum()),
         "missed": int(missed.sum()),
         "false_mask": false,
@@ -132,9 +140,10 @@ def compare_scan(output, ideal, tol=0.05, beam_window=1, mask=None):
     }
 
 
-def scan_metrics(output, ideal, tol=0.05, beam_window=1, mask=None):
+def scan_metrics(output, ideal, tol=0.05, beam_window=1, mask=None, rel_tol=0.0,
+                 range_max=np.inf):
     """Figures for one scan (median / p95 error, false / missed rates, coverage)."""
-    r = compare_scan(output, ideal, tol, beam_window, mask)
+    r = compare_scan(output, ideal, tol, beam_window, mask, rel_tol, range_max)
     return summarize(r["errors"], r["beams"], r["returns"], r["ideal_returns"],
                      r["false"], r["missed"])
 
