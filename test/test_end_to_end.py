@@ -1,0 +1,171 @@
+"""End to end: a short simulated bag through the full launch (one manager:
+depth_image_proc, converters, mergers), evaluated against the scenario's ground truth;
+and a user's bag without ground truth (two real lidars) through a merger-only launch.
+
+Needs the workspace built and its devel/setup.bash sourced (the nodelets are found
+through ROS_PACKAGE_PATH); each evaluation starts its own roscore on a free port.
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(HERE)
+SCRIPTS = os.path.join(REPO, "scripts")
+sys.path.insert(0, SCRIPTS)
+from laserscan_toolbox import evaluate as ev  # noqa: E402
+
+DATA = os.path.join(REPO, "..", "shared", "data")
+DUAL_BAG = os.path.join(DATA, "dual_lidar_scans_demo.bag")
+DURATION = 18.0
+MERGED, LIDAR_ONLY = "/merged_scan", "/lidar_scan"
+
+
+def run(cmd, timeout):
+    p = subprocess.run([sys.executable] + cmd, capture_output=True, text=True, timeout=timeout)
+    return p.returncode, p.stdout + p.stderr[-5000:]
+
+
+@pytest.fixture(scope="module")
+def evaluated(tmp_path_factory):
+    d = tmp_path_factory.mktemp("end_to_end")
+    bag = str(d / "short.bag")
+    code, out = run([os.path.join(SCRIPTS, "simulate_scenario"), "--output", bag,
+                     "--duration", str(DURATION), "--seed", "1"], 600)
+    assert code == 0, out
+    outdir = str(d / "out")
+    code, log = run([os.path.join(SCRIPTS, "evaluate_bag"), bag, "--output", outdir,
+                     "--save-scans", "--no-progress", "--max-median-error", "0.03"], 600)
+    with open(os.path.join(outdir, "results.json")) as f:
+        results = json.load(f)
+    scans = ev.load_scan_records(os.path.join(outdir, "scans.npz"))
+    return {"bag": bag, "code": code, "log": log, "results": results, "scans": scans,
+            "out": outdir}
+
+
+def test_merged_scan_is_accurate(evaluated):
+    res = evaluated["results"]
+    assert evaluated["code"] == 0, evaluated["log"]
+    acc = res["accuracy"][MERGED]
+    assert acc["scans"] > 50
+    assert acc["median_error"] <= 0.03, acc
+    assert os.path.isfile(os.path.join(evaluated["out"], "report.md"))
+
+
+def camera_scan_topics(res):
+    return [t for t, a in res["accuracy"].items()
+            if a.get("frame") == "base_link" and t not in (MERGED, LIDAR_ONLY)]
+
+
+def test_no_floor_or_ceiling_obstacles_while_the_cameras_tilt(evaluated):
+    """A return where the ideal scan (robot band, true pose) is empty is a false obstacle:
+    the floor seen by a camera tilted down, or the ceiling / overhead lamps tilted up."""
+    res = evaluated["results"]
+    cams = camera_scan_topics(res)
+    assert len(cams) == 2, res["accuracy"].keys()
+    for t in cams + [MERGED]:
+        a = res["accuracy"][t]
+        assert a["returns"] > 1000, (t, a)
+        assert a["false_rate"] <= 0.02, (t, a)
+
+
+def _nearest(stamps, t):
+    i = int(np.argmin(np.abs(stamps - t)))
+    return i, abs(stamps[i] - t)
+
+
+def test_table_tops_in_the_fused_scan_not_in_the_lidar_only_scan(evaluated):
+    """Beams where something above the lidars' plane (a table top, a shelf's overhang) is
+    closer than anything in the plane: the camera-fused scan sees it at the right range,
+    the lidar-only scan does not."""
+    from laserscan_toolbox.scenario import Scenario
+    sc = Scenario.from_bag(evaluated["bag"])
+    res = evaluated["results"]
+    floor, zlo, zhi = res["band"]
+    plane = next(a["z_band"] for a in res["accuracy"].values()
+                 if a.get("frame") not in (None, "base_link"))
+    fused, lidar = evaluated["scans"][MERGED], evaluated["scans"][LIDAR_ONLY]
+    n = fused["ranges"].shape[1]
+    ang = fused["angle_min"] + fused["angle_increment"] * np.arange(n)
+    front = np.abs(np.arctan2(np.sin(ang), np.cos(ang))) < math.radians(75)
+    seen_fused = seen_lidar = total = 0
+    for i in range(0, len(fused["stamp"]), 4):
+        t = float(fused["stamp"][i])
+        j, dt = _nearest(lidar["stamp"], t)
+        if dt > 0.07 or lidar["ranges"].shape[1] != n:
+            continue
+        pose = sc.true_pose(t)
+        args = (t, float(fused["angle_min"]), float(fused["angle_min"] + fused["angle_increment"] * (n - 1)),
+                float(fused["angle_increment"]), float(fused["range_min"]), float(fused["range_max"]))
+        full = np.asarray(sc.ideal_scan(*args, zlo, zhi, pose=pose), float)
+        flat = np.asarray(sc.ideal_scan(*args, plane[0], plane[1], pose=pose), float)
+        with np.errstate(invalid="ignore"):
+            table = front & np.isfinite(full) & (full < 3.0) & ~(flat < full + 0.3)
+        if not table.any():
+            continue
+        total += int(table.sum())
+        near = 0.08
+        with np.errstate(invalid="ignore"):
+            seen_fused += int((np.abs(fused["ranges"][i] - full) < near)[table].sum())
+            seen_lidar += int((np.abs(lidar["ranges"][j] - full) < near)[table].sum())
+    assert total > 200, "the route should pass table tops within 3 m (%d beams)" % total
+    frac_fused, frac_lidar = seen_fused / total, seen_lidar / total
+    print("table-top beams: %d, seen by the fused scan %.0f%%, by the lidar-only scan %.0f%%"
+          % (total, 100 * frac_fused, 100 * frac_lidar))
+    # The cameras see a table top only while their tilt puts it in view (the servos sweep
+    # 15 +- 20 degrees down), so not every beam of every scan can see it.
+    assert frac_fused >= 0.4
+    assert frac_lidar <= 0.05
+
+
+def test_maps_show_3d_obstacles_only_with_cameras(evaluated):
+    m = evaluated["results"]["mapping"]
+    # Reference: a perfect 360-degree sensor in the band; the cameras cover the front 164
+    # degrees, so the fused map finds a share of it, the lidar-only map next to nothing.
+    assert m[MERGED]["found_3d"] >= 0.25, m
+    assert m[MERGED]["found_3d"] >= 2.5 * m[LIDAR_ONLY]["found_3d"], m
+    assert os.path.isfile(os.path.join(evaluated["out"], "maps", "maps.png"))
+
+
+def test_users_bag_without_ground_truth(tmp_path):
+    """Two real lidars, no tf, no odometry: launch/dual_lidar_demo.launch publishes the
+    mounts and merges; the tool reports rates, drops, coverage and CPU, no accuracy."""
+    assert os.path.isfile(DUAL_BAG), "missing %s" % DUAL_BAG
+    out = str(tmp_path / "out")
+    code, log = run([os.path.join(SCRIPTS, "evaluate_bag"), DUAL_BAG, "--launch",
+                     os.path.join(REPO, "launch", "dual_lidar_demo.launch"), "--output", out,
+                     "--rate", "2", "--no-progress", "--min-rate", "15", "--max-dropped", "0.05",
+                     "--min-coverage", "0.3"], 300)
+    assert code == 0, log
+    with open(os.path.join(out, "results.json")) as f:
+        r = json.load(f)
+    m = r["outputs"][MERGED]
+    assert {i["topic"] for i in m["inputs"]} == {"/front_scan", "/rear_scan"}
+    assert "accuracy" not in r and not r["ground_truth"]
+    assert any("nodelet manager" in n for n in r["cpu"])
+
+
+def test_thresholds_decide_the_exit_status():
+    results = {"outputs": {"/s": {"rate_hz": 10.0, "latency_p95_s": 0.02, "dropped_fraction": 0.0,
+                                  "coverage": 0.5}},
+               "accuracy": {"/s": {"median_error": 0.01, "p95_error": 0.2, "false_rate": 0.0,
+                                   "missed_rate": 0.4}},
+               "cpu": {"m": {"cpu_percent": 30.0}}}
+    ok = ev.check_thresholds(results, {"max_median_error": 0.03, "min_rate": 8}, ["/s"])
+    assert all(c for c, _ in ok) and len(ok) == 2
+    bad = ev.check_thresholds(results, {"max_p95_error": 0.1, "max_cpu": 10}, ["/s"])
+    assert [c for c, _ in bad] == [False, False]
+    missing = ev.check_thresholds(results, {"min_rate": 1}, ["/other"])
+    assert [c for c, _ in missing] == [False]
+
+
+def test_evaluate_bag_usage_errors(tmp_path):
+    tool = os.path.join(SCRIPTS, "evaluate_bag")
+    assert run([tool, str(tmp_path / "none.bag")], 60)[0] == 2
+    assert run([tool], 60)[0] == 2
+    assert run([tool, DUAL_BAG, "--launch", str(tmp_path / "none.launch")], 60)[0] == 2
