@@ -169,7 +169,8 @@ def write_markdown(res, path):
                      fmt(w["bytes_per_s"] / m["bytes_per_s"] if m["bytes_per_s"] else float("nan"), 1, 0)])
     text = ["# CPU against depth points", "",
             "Simulated bags of %.0f s per point count; one nodelet manager runs depth_image_proc, "
-            "the two converters and the mergers. CPU in percent of one core over the playback; "
+            "the two converters and the mergers. CPU: CPU seconds per second of bag data, in "
+            "percent of one core; "
             "sizes as received by an out-of-process consumer. Total run %.0f s." % (
                 res["duration_s"], res["wall_s"]), "",
             table(["points per camera", "manager CPU %, merged consumer",

@@ -232,6 +232,12 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
         _wait_playback(player, bag_info, progress, label, late_outputs)
         time.sleep(tail)  # outputs of the last inputs are still on their way
         cpu_res, wall = cpu.stop()
+        # CPU per second of data: the window also holds rosbag's start delay and the tail,
+        # during which the pipeline idles; short bags would otherwise look cheaper.
+        data_s = max((bag_info["end"] - bag_info["start"]) / rate, 1e-9)
+        for c in cpu_res.values():
+            c["cpu_percent_wall"] = c["cpu_percent"]
+            c["cpu_percent"] = 100.0 * c["cpu_seconds"] / data_s
         rec.close()
         if launch.proc.poll() is not None:
             raise RunError("the pipeline stopped during playback:\n%s"

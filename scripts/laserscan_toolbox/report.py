@@ -78,7 +78,9 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
               "Rate from the stamps; latency = time of receipt (bag clock) minus stamp; "
               "an input is dropped when its stamp never reappears on the output.", "",
               outputs_table(results), "", "## CPU", "",
-              "Over %.1f s of playback (wall)." % results["playback_wall_s"], "",
+              "CPU seconds per second of bag data, in percent of one core (the measuring "
+              "window, %.1f s of wall time, also holds rosbag's start delay and the last "
+              "outputs)." % results["playback_wall_s"], "",
               cpu_table(results), ""]
     if results.get("accuracy"):
         lines += ["## Accuracy against the ideal scan", "",
