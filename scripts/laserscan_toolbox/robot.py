@@ -65,8 +65,8 @@ class Lidar:
     beams: int = 360             # 1 degree resolution over 360 degrees
     range_min: float = 0.15      # m; closer hits are reported as -inf (REP 117)
     range_max: float = 12.0      # m; farther: +inf
-    noise_sigma: float = 0.004   # m, constant part of the range noise
-    noise_per_m: float = 0.004   # m of noise std per metre of range
+    noise_sigma: float = 0.003   # m, constant part of the range noise
+    noise_per_m: float = 0.003   # m of noise std per metre of range
     dropout: float = 0.003       # probability of a lost return (+inf)
     phase: float = 0.0           # s, offset of the first scan from the start
     latency: float = 0.01        # s between the end of a scan and its bag time
@@ -93,8 +93,8 @@ class Camera:
     servo_phase: float = 0.0                # rad
     min_depth: float = 0.2
     max_depth: float = 8.0
-    noise_a: float = 0.0015
-    noise_b: float = 0.0012
+    noise_a: float = 0.001
+    noise_b: float = 0.001
     dropout: float = 0.01                   # fraction of pixels without depth
     latency: float = 0.03
 
