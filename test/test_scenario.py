@@ -5,6 +5,7 @@ import sys
 
 import numpy as np
 import pytest
+import yaml
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
 from laserscan_toolbox.scenario import Scenario, TOPICS  # noqa: E402
@@ -189,3 +190,48 @@ def test_scenario_round_trips_from_bag(short_bag):
     sc, path, _, _, _ = short_bag
     sc2 = Scenario.from_bag(path)
     assert sc2.to_yaml() == sc.to_yaml()
+
+
+REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+
+
+@pytest.mark.parametrize("standalone,expected_manager", [("false", True), ("true", False)])
+def test_pipeline_launch_nodes(standalone, expected_manager):
+    """launch/pipeline.launch parses (its configs pass check_config) and starts the
+    two depth_image_proc nodelets, two converters, two mergers, with one manager
+    unless standalone.  Needs the workspace's devel/setup.bash sourced."""
+    import subprocess
+    out = subprocess.run(["roslaunch", "--nodes", os.path.join(REPO, "launch", "pipeline.launch"),
+                          f"standalone:={standalone}"], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    nodes = set(out.stdout.split())
+    for n in ("/camera_left_points", "/camera_right_points", "/camera_left_converter",
+              "/camera_right_converter", "/merged_scan_merger", "/lidar_scan_merger"):
+        assert n in nodes
+    assert ("/pipeline_manager" in nodes) == expected_manager
+
+
+def test_sim_configs_match_the_simulated_robot():
+    """The merger masks hide exactly the lidars' body shadow, and topics are the
+    simulator's, so a change on one side cannot silently break the other."""
+    sc = Scenario.default(duration=2.0, camera_points=1000)
+    with open(os.path.join(REPO, "config", "sim_robot", "merged_scan.yaml")) as f:
+        merged = yaml.safe_load(f)
+    with open(os.path.join(REPO, "config", "sim_robot", "lidar_scan.yaml")) as f:
+        lidar_only = yaml.safe_load(f)
+    topics = {s["topic"] for s in merged["sources"]}
+    assert topics == {TOPICS["lidar_front"], TOPICS["lidar_rear"], TOPICS["camera_left_scan"],
+                      TOPICS["camera_right_scan"]}
+    assert {s["topic"] for s in lidar_only["sources"]} == {TOPICS["lidar_front"], TOPICS["lidar_rear"]}
+    for src in lidar_only["sources"]:
+        lidar = next(L for L in sc.robot.lidars if TOPICS[L.name] == src["topic"])
+        body = sc.body_ranges(lidar)
+        ang = -math.pi + np.arange(lidar.beams) * 2 * math.pi / lidar.beams
+        kept = (ang >= src["angle_min"]) & (ang <= src["angle_max"])
+        assert np.all(np.isinf(body[kept]))          # no kept beam sees the body
+        assert np.all(np.isfinite(body[~kept]))      # the mask hides nothing else
+    for side in ("left", "right"):
+        with open(os.path.join(REPO, "config", "sim_robot", f"camera_{side}_converter.yaml")) as f:
+            conv = yaml.safe_load(f)
+        assert conv["reference_frame"] == "base_link" and conv["floor_height"] == 0.0
+        assert conv["min_height"] < 0.75 < conv["max_height"]   # table tops are obstacles
