@@ -235,3 +235,20 @@ def test_sim_configs_match_the_simulated_robot():
             conv = yaml.safe_load(f)
         assert conv["reference_frame"] == "base_link" and conv["floor_height"] == 0.0
         assert conv["min_height"] < 0.75 < conv["max_height"]   # table tops are obstacles
+
+
+def test_cli_help_and_clear_errors(tmp_path):
+    import subprocess
+    exe = os.path.join(REPO, "scripts", "simulate_scenario")
+    out = subprocess.run([exe, "--help"], capture_output=True, text=True, timeout=30)
+    assert out.returncode == 0 and "--camera-points" in out.stdout
+    out = subprocess.run([exe, "--duration", "0.5", "-o", str(tmp_path / "x.bag")],
+                         capture_output=True, text=True, timeout=30)
+    assert out.returncode == 2 and "--duration" in out.stderr
+    out = subprocess.run([exe, "-o", str(tmp_path / "missing" / "x.bag")], capture_output=True, text=True,
+                         timeout=30)
+    assert out.returncode == 2 and "does not exist" in out.stderr
+    out = subprocess.run([exe, "--duration", "1.5", "--camera-points", "500", "--no-progress",
+                          "-o", str(tmp_path / "ok.bag")], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert Scenario.from_bag(str(tmp_path / "ok.bag")).duration == 1.5
