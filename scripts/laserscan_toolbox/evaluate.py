@@ -581,24 +581,38 @@ def run_mapping(run, info, scenario, results, map_topics, outdir, resolution=0.0
         if a.get("frame", BASE_FRAME) != BASE_FRAME and "z_band" in a:
             plane = tuple(a["z_band"])
             break
-    # reference: ideal scans in the robot's band along the path, at the fused stream's stamps
+    # Reference: ideal scans in the robot's band along the path, at the fused stream's
+    # stamps, over the directions the 3D sensors look (the camera scans' angular spans in
+    # base_link): what perfect cameras would have put in the map.
     last_topic = list(streams)[-1]
-    ideal, last = [], -1e18
+    spans = []
+    for t, d in run["records"].items():
+        sc0 = d["scans"][0] if d.get("scans") else None
+        if sc0 and sc0["frame"].lstrip("/") == BASE_FRAME and t not in map_topics \
+                and t not in ("/merged_scan", "/lidar_scan"):
+            spans.append((sc0["angle_min"], sc0["angle_max"]))
+    ideal, ideal_view, last = [], [], -1e18
     for s in streams[last_topic]:
         if s["stamp"] - last < min_dt:
             continue
         last = s["stamp"]
-        r = scenario.ideal_scan(s["stamp"], s["angle_min"], s["angle_max"], s["angle_increment"],
-                                s["range_min"], s["range_max"], zlo, zhi,
-                                pose=scenario.true_pose(s["stamp"]))
-        ideal.append(dict(s, ranges=np.asarray(r, float)))
+        r = np.asarray(scenario.ideal_scan(
+            s["stamp"], s["angle_min"], s["angle_max"], s["angle_increment"], s["range_min"],
+            s["range_max"], zlo, zhi, pose=scenario.true_pose(s["stamp"])), float)
+        ideal.append(dict(s, ranges=r))
+        if spans:
+            view = np.zeros(r.size, bool)
+            for lo, hi in spans:
+                view |= metrics.angular_mask(r.size, s["angle_min"], s["angle_increment"], lo, hi)
+            ideal_view.append(dict(s, ranges=np.where(view, r, np.inf)))
     ts = np.arange(info["start"], info["end"], 0.1)
     traj = np.array([scenario.true_pose(t)[:2] for t in ts])
     fig = mapping.mapping_experiment(streams, scenario, outdir, resolution=resolution,
                                      band=(zlo, zhi), plane_band=plane, trajectory=traj,
-                                     ideal_scans=ideal)
+                                     ideal_scans=ideal, ideal_scans_3d=ideal_view or None)
     fig["plane_band"] = plane
     fig["band"] = (zlo, zhi)
+    fig["reference_spans"] = spans
     return fig
 
 

@@ -103,7 +103,7 @@ def dilate(mask, cells=1):
     return out
 
 
-def compare_maps(maps, truth, truth_plane, reference=None, tolerance_cells=1):
+def compare_maps(maps, truth, truth_plane, reference=None, tolerance_cells=1, reference_3d=None):
     """Figures of each map against the ground truth.
 
     truth: obstacle cells of the robot's full height band (filled solids);
@@ -111,7 +111,8 @@ def compare_maps(maps, truth, truth_plane, reference=None, tolerance_cells=1):
     from ideal scans along the same path, i.e. the surfaces a perfect sensor in the band
     could have seen; obstacles are judged against it (solids' insides and their far sides
     are never seen). ``3d`` cells (table tops, overhangs) are reference cells not near
-    ``truth_plane``.
+    ``truth_plane``; ``reference_3d`` (default: reference) is the map they are taken from,
+    e.g. one built only over the directions the cameras look.
     """
     observed = np.zeros(truth.shape, bool)
     for g in maps.values():
@@ -120,7 +121,8 @@ def compare_maps(maps, truth, truth_plane, reference=None, tolerance_cells=1):
         observed |= reference.known()
     observed = dilate(observed, 1)
     seen = reference.occupied() if reference is not None else truth & observed
-    only3d = seen & ~dilate(truth_plane, 1)
+    seen3d = reference_3d.occupied() if reference_3d is not None else seen
+    only3d = seen3d & ~dilate(truth_plane, 1)
     out = {"observed_cells": int(observed.sum()), "reference_cells": int(seen.sum()),
            "reference_3d_cells": int(only3d.sum())}
     near_truth = dilate(truth, tolerance_cells)
@@ -154,12 +156,15 @@ def _tolerant_iou(occ, truth, region, k):
 
 
 def mapping_experiment(scans_by_name, scenario, outdir, resolution=0.05, band=(0.05, 1.0),
-                       plane_band=None, trajectory=None, max_range=8.0, ideal_scans=None):
+                       plane_band=None, trajectory=None, max_range=8.0, ideal_scans=None,
+                       ideal_scans_3d=None):
     """Maps of each scan stream at the true poses, side by side with the ground truth.
 
     scans_by_name: {"lidar only (/lidar_scan)": [scan dicts], ...}; band: the robot's
     obstacle band (heights above the floor); plane_band: the lidars' band; ideal_scans:
-    scan dicts of the ideal scan in ``band`` along the path (the reference map).
+    scan dicts of the ideal scan in ``band`` along the path (the reference map);
+    ideal_scans_3d: the same restricted to where the 3D sensors look (the reference of the
+    "3D obstacles found" figure; default ideal_scans).
     Writes maps.png and map_server files; returns the figures.
     """
     import matplotlib
@@ -182,7 +187,11 @@ def mapping_experiment(scans_by_name, scenario, outdir, resolution=0.05, band=(0
     if ideal_scans:
         reference = build_map(ideal_scans, lambda t: scenario.true_pose(t), origin, resolution,
                               truth.shape, max_range=max_range)
-    figures = compare_maps(maps, truth, plane, reference)
+    reference_3d = None
+    if ideal_scans_3d:
+        reference_3d = build_map(ideal_scans_3d, lambda t: scenario.true_pose(t), origin,
+                                 resolution, truth.shape, max_range=max_range)
+    figures = compare_maps(maps, truth, plane, reference, reference_3d=reference_3d)
     os.makedirs(outdir, exist_ok=True)
     files = {}
     for i, (name, g) in enumerate(maps.items()):

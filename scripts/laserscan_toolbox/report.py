@@ -95,9 +95,11 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
         lines += ["## Mapping at the true poses (paper Fig. 6)", "",
                   "Occupancy grids (%.2f m cells) from each scan stream at the true poses, "
                   "against the ground-truth obstacles of the band %.2f-%.2f m. IoU: occupied "
-                  "cells against the map a perfect sensor in that band would build along the "
-                  "same path (a cell matches within one cell); 3D obstacles: its cells above "
-                  "the lidars' plane (table tops, overhangs) found in the map; false cells: "
+                  "cells against the map a perfect 360-degree sensor in that band would build "
+                  "along the same path (a cell matches within one cell); 3D obstacles: the "
+                  "cells above the lidars' plane (table tops, overhangs) that such a sensor "
+                  "looking where the cameras look (their scans' angular spans) maps, found in "
+                  "the map; false cells: "
                   "occupied with no obstacle within one cell in the ground truth." % (
                       0.05, m["band"][0], m["band"][1]), "",
                   table(["scan", "IoU", "IoU vs filled truth", "obstacles found %",
