@@ -37,11 +37,6 @@ def simulate(path, duration, points, seed=0):
     return path
 
 
-def _own_cpu():
-    t = os.times()
-    return t.user + t.system
-
-
 def measure(session, bag, launch, launch_args, consumer, merged_topic):
     """One playback; consumer 'merged' or 'raw'. Returns figures."""
     info = ev.inspect_bag(bag)
@@ -49,11 +44,10 @@ def measure(session, bag, launch, launch_args, consumer, merged_topic):
         types = ("sensor_msgs/LaserScan",)
     else:
         types = ("sensor_msgs/PointCloud2", "sensor_msgs/LaserScan")
-    c0, w0 = _own_cpu(), time.time()
     run = ev.run_pipeline(session, info, launch, launch_args, progress=False,
                           record_types=types, label="%s_%s" % (os.path.basename(bag), consumer),
                           select=_selector(consumer, merged_topic, info))
-    own = 100.0 * (_own_cpu() - c0) / max(time.time() - w0, 1e-9)
+    own = run["consumer_cpu_percent"]
     dur = info["end"] - info["start"]
     recv = {t: d for t, d in run["records"].items()}
     out = {"consumer": consumer, "bag_s": dur, "topics": {}, "consumer_cpu_percent": own}

@@ -209,6 +209,7 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
         procs = launch.processes()
         cpu = CpuMeter(procs)
         player = BagPlayer(bag_info["path"], os.path.join(wd, label + "_play.log"), rate=rate)
+        own0 = sum(os.times()[:2])  # this process is the consumer of what it records
         cpu.start()
         player.start()
         bag_topics = set(bag_info["topics"])
@@ -232,6 +233,7 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
         _wait_playback(player, bag_info, progress, label, late_outputs)
         time.sleep(tail)  # outputs of the last inputs are still on their way
         cpu_res, wall = cpu.stop()
+        own_cpu = sum(os.times()[:2]) - own0
         # CPU per second of data: the window also holds rosbag's start delay and the tail,
         # during which the pipeline idles; short bags would otherwise look cheaper.
         data_s = max((bag_info["end"] - bag_info["start"]) / rate, 1e-9)
@@ -243,6 +245,7 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
             raise RunError("the pipeline stopped during playback:\n%s"
                            % _tail(launch.log_path))
         return {"outputs": outputs, "publishers": pubs, "records": rec.data, "cpu": cpu_res,
+                "consumer_cpu_percent": 100.0 * own_cpu / data_s,
                 "wall": wall, "launch": launch.cmd, "player": player.cmd}
     finally:
         if rec is not None:
