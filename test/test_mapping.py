@@ -72,6 +72,17 @@ def test_grid_marks_hit_and_free_cells():
     assert g.known()[10, 11:29].all() and not g.occupied()[10, 11:29].any()
 
 
+def test_a_cell_is_occupied_when_a_quarter_of_its_visits_are_hits():
+    g = mapping.Grid((0, 0), 0.1, (50, 50))
+    for _ in range(3):  # a table top seen three times by a camera ...
+        g.integrate((1.0, 1.0, 0.0), 0.0, 0.1, [2.0])
+    for _ in range(9):  # ... and passed under nine times by a lidar beam
+        g.integrate((1.0, 1.0, 0.0), 0.0, 0.1, [3.0])
+    assert g.occupied()[10, 30]
+    g.integrate((1.0, 1.0, 0.0), 0.0, 0.1, [3.0])
+    assert not g.occupied()[10, 30]  # 3 hits of 13 visits
+
+
 def test_no_return_clears_nothing():
     g = mapping.Grid((0, 0), 0.1, (20, 20))
     g.integrate((1.0, 1.0, 0.0), 0.0, 0.1, [np.inf, np.nan, -np.inf])
@@ -98,9 +109,9 @@ def test_compare_maps_counts_false_cells():
     truth = np.zeros((20, 20), bool)
     truth[10, :] = True
     g = mapping.Grid((0, 0), 1.0, (20, 20))
-    g.logodds[10, :] = 2.0
-    g.logodds[2, 2] = 2.0  # a ghost obstacle
-    g.touched[:] = True
+    g.misses[:] = 1
+    g.hits[10, :] = 1
+    g.hits[2, 2] = 1  # a ghost obstacle
     f = mapping.compare_maps({"m": g}, truth, np.zeros_like(truth))
     assert f["m"]["false_cells"] == 1
     assert f["m"]["found"] == 1.0

@@ -2,9 +2,14 @@
 (the paper's Fig. 6: a map from the lidar-only scan against one from the lidar+camera scan).
 
 Grids are ``[iy, ix]`` arrays; cell (iy, ix) covers x in origin_x + [ix, ix+1) * res and
-y in origin_y + [iy, iy+1) * res. Log-odds update per scan: cells a beam passes through
-become freer, the cell of its return more occupied. A beam with no return (+Inf) clears
-nothing: REP 117 says nothing about where the free space ends.
+y in origin_y + [iy, iy+1) * res. Each scan counts, per cell, a hit where a beam ends and a
+miss where a beam passes through; a cell is occupied when at least OCC_RATIO of its visits
+were hits (gmapping's rule and default, occ_thresh 0.25). The rule matters for merged
+scans: where the cameras look elsewhere, lidar beams pass under a table top that the
+cameras saw before, and a log-odds map with the usual inverse sensor model (hit +0.85,
+miss -0.4, clamped) soon erases it. A beam with no return (+Inf) counts nothing: REP 117
+says nothing about where
+the free space ends.
 """
 
 import math
@@ -14,9 +19,7 @@ import numpy as np
 
 from . import metrics
 
-HIT = 0.9
-MISS = -0.4
-CLAMP = 4.0
+OCC_RATIO = 0.25
 
 
 class Grid:
@@ -24,8 +27,8 @@ class Grid:
         self.origin = (float(origin[0]), float(origin[1]))
         self.resolution = float(resolution)
         self.shape = tuple(int(s) for s in shape)
-        self.logodds = np.zeros(self.shape, np.float32)
-        self.touched = np.zeros(self.shape, bool)
+        self.hits = np.zeros(self.shape, np.int32)
+        self.misses = np.zeros(self.shape, np.int32)
 
     def cells(self, x, y):
         ix = np.floor((np.asarray(x) - self.origin[0]) / self.resolution).astype(np.int64)
@@ -51,19 +54,15 @@ class Grid:
         fy = (y + s[:, None] * t[None, :])[along]
         free = np.unique(self.cells(fx, fy))
         occ = np.unique(self.cells(x + c * rh, y + s * rh))
-        flat = self.logodds.reshape(-1)
-        touched = self.touched.reshape(-1)
-        flat[free] += MISS
-        flat[occ] += HIT - (MISS * np.isin(occ, free))  # a hit cell is not also cleared
-        np.clip(flat, -CLAMP, CLAMP, out=flat)
-        touched[free] = True
-        touched[occ] = True
+        self.misses.reshape(-1)[free] += 1
+        self.hits.reshape(-1)[occ] += 1
+        self.misses.reshape(-1)[occ[np.isin(occ, free)]] -= 1  # a hit cell is not also a miss
 
-    def occupied(self, threshold=0.5):
-        return self.logodds > threshold
+    def occupied(self, ratio=OCC_RATIO):
+        return (self.hits > 0) & (self.hits >= ratio * (self.hits + self.misses))
 
     def known(self):
-        return self.touched
+        return (self.hits + self.misses) > 0
 
     def save_pgm(self, path_base):
         """map_server format: PGM (white free, black occupied, grey unknown) + YAML."""
