@@ -242,8 +242,10 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
             c["cpu_percent"] = 100.0 * c["cpu_seconds"] / data_s
         rec.close()
         if launch.proc.poll() is not None:
-            raise RunError("the pipeline stopped during playback:\n%s"
-                           % _tail(launch.log_path))
+            died = [l for l in open(launch.log_path, errors="replace")
+                    if "has died" in l or "terminate called" in l or "what()" in l]
+            raise RunError("the pipeline stopped during playback:\n%s%s"
+                           % ("".join(died), _tail(launch.log_path)))
         return {"outputs": outputs, "publishers": pubs, "records": rec.data, "cpu": cpu_res,
                 "consumer_cpu_percent": 100.0 * own_cpu / data_s,
                 "wall": wall, "launch": launch.cmd, "player": player.cmd}
@@ -513,8 +515,12 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
     if config_dir:
         args.append("config_dir:=%s" % os.path.abspath(config_dir))
     with Session(workdir=workdir) as session:
-        run = run_pipeline(session, info, launch_file, args, rate=rate, progress=progress,
-                           label=os.path.splitext(os.path.basename(bag))[0])
+        try:
+            run = run_pipeline(session, info, launch_file, args, rate=rate, progress=progress,
+                               label=os.path.splitext(os.path.basename(bag))[0])
+        except RunError as e:
+            session.keep = True  # the logs say why (a node that died, a bad config)
+            raise RunError("%s\n(logs kept in %s)" % (e, session.workdir))
     results = {"bag": info["path"], "bag_duration_s": info["end"] - info["start"],
                "bag_size_bytes": info["size"], "launch": run["launch"],
                "player": run["player"], "ground_truth": scenario is not None,
