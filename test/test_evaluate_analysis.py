@@ -13,7 +13,8 @@ from laserscan_toolbox import evaluate as ev  # noqa: E402
 def test_dropped_inputs_are_found_by_stamp():
     cam = np.arange(0, 10, 1 / 14.0)
     lidar = np.arange(0.03, 10, 1 / 8.0)
-    bag = {"/cam/depth": {"stamps": cam.tolist()}, "/lidar": {"stamps": lidar.tolist()},
+    bag = {"/cam/depth": {"stamps": cam.tolist()}, "/cam/info": {"stamps": cam.tolist()},
+           "/lidar": {"stamps": lidar.tolist()},
            "/odom": {"stamps": np.arange(0.01, 10, 0.02).tolist()}}
     out = np.concatenate([cam[::2], cam[1::2][:-5]])  # 5 camera frames lost
     d = ev.match_inputs(out, bag)

@@ -305,11 +305,15 @@ def match_inputs(out_stamps, bag_topics, min_matches=3):
     """
     out = set(np.round(np.asarray(out_stamps, float) * 1e6).astype(np.int64).tolist())
     drivers = []
-    for topic, info in bag_topics.items():
+    seen = []  # a camera's image and camera_info share their stamps: count the frame once
+    for topic, info in sorted(bag_topics.items()):
         st = info.get("stamps") or []
         if not st or topic in SKIP_TOPICS:
             continue
         s = set(np.round(np.asarray(st) * 1e6).astype(np.int64).tolist())
+        if s in seen:
+            continue
+        seen.append(s)
         m = len(s & out)
         if m >= min_matches and m >= 0.3 * min(len(s), len(out)):
             drivers.append({"topic": topic, "inputs": len(s), "matched": m, "dropped": len(s) - m})
