@@ -22,9 +22,15 @@ void Parameters::validate() const
   require(!std::isnan(min_height), "min_height", "must not be NaN");
   require(!std::isnan(max_height), "max_height", "must not be NaN");
   require(min_height < max_height, "min_height", "must be smaller than max_height");
-  require(std::isfinite(angle_min), "angle_min", "must be finite");
-  require(std::isfinite(angle_max), "angle_max", "must be finite");
+  // The same angle rules as multi_laserscan_merger's output: a scan covers at most one turn,
+  // which also catches limits written in degrees.
+  constexpr double kTwoPi = 2.0 * 3.14159265358979323846;
+  require(std::isfinite(angle_min) && angle_min >= -kTwoPi && angle_min <= kTwoPi, "angle_min",
+          "must be finite and within [-2*pi, 2*pi] (radians)");
+  require(std::isfinite(angle_max) && angle_max >= -kTwoPi && angle_max <= kTwoPi, "angle_max",
+          "must be finite and within [-2*pi, 2*pi] (radians)");
   require(angle_min < angle_max, "angle_min", "must be smaller than angle_max");
+  require(angle_max - angle_min <= kTwoPi + 1e-6, "angle_max", "angle_max - angle_min must not exceed 2*pi");
   require(std::isfinite(angle_increment) && angle_increment > 0.0, "angle_increment", "must be a finite value > 0");
   require((angle_max - angle_min) / angle_increment < 1e6, "angle_increment", "gives more than one million beams");
   require(std::isfinite(range_min) && range_min >= 0.0, "range_min", "must be finite and >= 0");

@@ -16,21 +16,21 @@ import os
 
 import yaml
 
-PI_TOL = 1e-6  # YAML files write pi with a few digits; allow rounding above pi
+PI_TOL = 1e-6  # the nodes' own tolerance above a limit of pi or 2 pi
 
 
 class Key:
     """One parameter: type ('float', 'int', 'bool', 'str'), default, unit and limits."""
 
     def __init__(self, kind, default, unit="", lo=None, hi=None, lo_open=False,
-                 angle=False, nonempty=False, doc=""):
+                 angle=None, nonempty=False, doc=""):
         self.kind = kind
         self.default = default
         self.unit = unit
         self.lo = lo
         self.hi = hi
         self.lo_open = lo_open
-        self.angle = angle
+        self.angle = angle  # None: any finite angle; else the largest |angle| the node accepts
         self.nonempty = nonempty
         self.doc = doc
 
@@ -43,13 +43,13 @@ CONVERTER = {
     "floor_height": Key("float", 0.0, "m", doc="z of the floor in reference_frame"),
     "min_height": Key("float", 0.05, "m", doc="lower edge of the obstacle band above the floor"),
     "max_height": Key("float", 1.0, "m", doc="upper edge of the obstacle band above the floor"),
-    "angle_min": Key("float", -math.pi, "rad", angle=True),
-    "angle_max": Key("float", math.pi, "rad", angle=True),
+    "angle_min": Key("float", -math.pi, "rad", angle=2 * math.pi),
+    "angle_max": Key("float", math.pi, "rad", angle=2 * math.pi),
     "angle_increment": Key("float", math.pi / 720, "rad", lo=0.0, lo_open=True),
     "range_min": Key("float", 0.0, "m", lo=0.0),
     "range_max": Key("float", 10.0, "m", lo=0.0, lo_open=True),
     "hole_detection": Key("bool", False),
-    "hole_depth": Key("float", 0.05, "m", lo=0.0, lo_open=True),
+    "hole_depth": Key("float", 0.05, "m", lo=0.0),
     "transform_tolerance": Key("float", 0.1, "s", lo=0.0),
     "row_stride": Key("int", 1, lo=1),
     "column_stride": Key("int", 1, lo=1),
@@ -65,8 +65,8 @@ CONVERTER_PAIRS = [("min_height", "max_height"), ("angle_min", "angle_max"),
 
 MERGER = {
     "output_frame": Key("str", "base_link", nonempty=True),
-    "angle_min": Key("float", -math.pi, "rad", angle=True),
-    "angle_max": Key("float", math.pi, "rad", angle=True),
+    "angle_min": Key("float", -math.pi, "rad", angle=2 * math.pi),
+    "angle_max": Key("float", math.pi, "rad", angle=2 * math.pi),
     "angle_increment": Key("float", math.pi / 720, "rad", lo=0.0, lo_open=True),
     "range_min": Key("float", 0.0, "m", lo=0.0),
     "range_max": Key("float", 30.0, "m", lo=0.0, lo_open=True),
@@ -83,9 +83,9 @@ MERGER_PAIRS = [("angle_min", "angle_max"), ("range_min", "range_max")]
 SOURCE = {
     "name": Key("str", None, nonempty=True),
     "topic": Key("str", None, nonempty=True),
-    "timeout": Key("float", 1.0, "s", lo=0.0),
-    "angle_min": Key("float", -math.pi, "rad", angle=True),
-    "angle_max": Key("float", math.pi, "rad", angle=True),
+    "timeout": Key("float", 1.0, "s", lo=0.0, lo_open=True),
+    "angle_min": Key("float", -math.pi, "rad", angle=math.pi),
+    "angle_max": Key("float", math.pi, "rad", angle=math.pi),
     "range_min": Key("float", 0.0, "m", lo=0.0),
     "range_max": Key("float", INF, "m", lo=0.0, lo_open=True),
     "deskew": Key("bool", False),
@@ -113,8 +113,12 @@ def check_value(path, key, value):
         v = float(value)
         if math.isnan(v):
             return ["%s: NaN is not a value" % path]
-        if key.angle and not (-math.pi - PI_TOL <= v <= math.pi + PI_TOL):
-            return ["%s: angle %g rad is outside [-pi, pi]" % (path, v)]
+        if key.angle is not None:
+            if not math.isfinite(v):
+                return ["%s: angle must be finite, got %g" % (path, v)]
+            if not -key.angle - PI_TOL <= v <= key.angle + PI_TOL:
+                limit = "pi" if key.angle == math.pi else "2 pi"
+                return ["%s: angle %g rad is outside [-%s, %s]" % (path, v, limit, limit)]
     elif key.kind in ("int", "whole"):
         whole_float = (key.kind == "whole" and isinstance(value, float) and value.is_integer())
         if isinstance(value, bool) or not (isinstance(value, int) or whole_float):
@@ -168,13 +172,24 @@ def _num(v):
     return isinstance(v, (int, float)) and not isinstance(v, bool) and not math.isnan(v)
 
 
+def _check_one_turn(params, schema, prefix):
+    """Both nodes: a scan covers at most one turn (also catches limits written in degrees)."""
+    lo = params.get("angle_min", schema["angle_min"].default)
+    hi = params.get("angle_max", schema["angle_max"].default)
+    if _num(lo) and _num(hi) and float(hi) - float(lo) > 2 * math.pi + PI_TOL:
+        return ["%s: angle_max - angle_min must not exceed 2 pi (%g rad)"
+                % (_join(prefix, "angle_max"), float(hi) - float(lo))]
+    return []
+
+
 def check_converter(params, prefix=""):
-    problems = _check_block(params, CONVERTER, CONVERTER_PAIRS, prefix)
-    return problems
+    return (_check_block(params, CONVERTER, CONVERTER_PAIRS, prefix)
+            + _check_one_turn(params, CONVERTER, prefix))
 
 
 def check_merger(params, prefix=""):
     problems = _check_block(params, MERGER, MERGER_PAIRS, prefix)
+    problems += _check_one_turn(params, MERGER, prefix)
     path = _join(prefix, "sources")
     sources = params.get("sources")
     if sources is None:

@@ -1,0 +1,117 @@
+"""The configuration checker and the nodes' own parameter checks must agree.
+
+The checker keeps a Python schema so that it can run before anything is built or started;
+the C++ cores (reached through their pybind11 modules) are the authority. These tests tie the
+two together: same defaults, and the same verdict on each single-parameter change.
+"""
+import math
+import os
+import sys
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "scripts"))
+from laserscan_toolbox import config_check as cc  # noqa: E402
+
+import depth_filter_scan_converter_core as converter_core  # noqa: E402  (built modules: source devel/setup.bash)
+import multi_laserscan_merger_core as merger_core  # noqa: E402
+
+# Keys the ROS glue reads outside the core's parameter struct (queue depth of the tf filter).
+CONVERTER_ROS_ONLY = {"queue_size"}
+
+
+def same(a, b):
+    if isinstance(a, float) or isinstance(b, float):
+        return math.isclose(float(a), float(b), rel_tol=1e-12, abs_tol=1e-12)
+    return a == b
+
+
+def test_converter_schema_has_the_core_defaults():
+    core = converter_core.Parameters()
+    for name, key in cc.CONVERTER.items():
+        if name in CONVERTER_ROS_ONLY:
+            continue
+        assert hasattr(core, name), "checker knows '%s', the converter core does not" % name
+        assert same(key.default, getattr(core, name)), \
+            "default of '%s': checker %r, core %r" % (name, key.default, getattr(core, name))
+
+
+CONVERTER_CHANGES = [
+    ("min_height", 1.0), ("min_height", 2.0), ("min_height", -math.inf), ("max_height", math.inf),
+    ("angle_min", 3.2), ("angle_min", -3.2), ("angle_min", -7.0), ("angle_max", 7.0),
+    ("angle_max", -math.pi), ("angle_increment", 0.0),
+    ("angle_increment", -0.01), ("range_min", -0.1), ("range_min", 10.0), ("range_max", 0.0),
+    ("range_max", math.inf), ("hole_depth", 0.0), ("hole_depth", -0.05),
+    ("transform_tolerance", -1.0), ("transform_tolerance", 0.0), ("row_stride", 0),
+    ("column_stride", 0), ("inf_epsilon", -1.0), ("tf_buffer_duration", 0.0),
+    ("reference_frame", ""), ("angle_min", math.nan), ("angle_max", math.inf),
+]
+
+
+@pytest.mark.parametrize("name,value", CONVERTER_CHANGES)
+def test_converter_verdicts_agree(name, value):
+    checker_ok = not cc.check_converter({name: value})
+    core = converter_core.Parameters()
+    setattr(core, name, value)
+    try:
+        core.validate()
+        core_ok = True
+    except ValueError:
+        core_ok = False
+    assert checker_ok == core_ok, "%s = %r: checker %s, converter core %s" % (
+        name, value, "accepts" if checker_ok else "rejects", "accepts" if core_ok else "rejects")
+
+
+SOURCE = {"name": "front", "topic": "front/scan"}
+MERGER_OUTPUT_CHANGES = [
+    ("angle_min", -2 * math.pi), ("angle_min", -7.0), ("angle_max", 2 * math.pi),
+    ("angle_min", -3.1416), ("angle_min", math.nan),
+    ("angle_max", -math.pi), ("angle_increment", 0.0), ("range_min", -1.0), ("range_min", 40.0),
+    ("range_max", math.inf), ("inf_epsilon", -1.0),
+]
+MERGER_SOURCE_CHANGES = [
+    ("timeout", 0.0), ("timeout", -1.0), ("angle_min", 2.5), ("angle_min", 4.0),
+    ("angle_max", -4.0), ("angle_max", 3.1416), ("angle_max", 3.14159), ("range_min", -0.5), ("range_min", 2.0), ("range_max", 0.0),
+    ("topic", ""), ("name", ""),
+]
+
+
+def merger_core_accepts(output, sources):
+    try:
+        merger_core.Merger(output, sources)
+        return True
+    except (ValueError, merger_core.ParameterError):
+        return False
+
+
+@pytest.mark.parametrize("name,value", MERGER_OUTPUT_CHANGES)
+def test_merger_output_verdicts_agree(name, value):
+    checker_ok = not cc.check_merger({name: value, "sources": [dict(SOURCE)]})
+    core_ok = merger_core_accepts({name: value}, [dict(SOURCE)])
+    assert checker_ok == core_ok, "%s = %r: checker %s, merger core %s" % (
+        name, value, "accepts" if checker_ok else "rejects", "accepts" if core_ok else "rejects")
+
+
+@pytest.mark.parametrize("name,value", MERGER_SOURCE_CHANGES)
+def test_merger_source_verdicts_agree(name, value):
+    source = dict(SOURCE, **{name: value})
+    checker_ok = not cc.check_merger({"sources": [source]})
+    core_ok = merger_core_accepts({}, [source])
+    assert checker_ok == core_ok, "sources[0].%s = %r: checker %s, merger core %s" % (
+        name, value, "accepts" if checker_ok else "rejects", "accepts" if core_ok else "rejects")
+
+
+def test_merger_span_rule_agrees():
+    output = {"angle_min": -2 * math.pi, "angle_max": 0.0}
+    assert not cc.check_merger(dict(output, sources=[dict(SOURCE)]))
+    assert merger_core_accepts(output, [dict(SOURCE)])
+    output = {"angle_min": -2 * math.pi, "angle_max": 0.5}
+    assert cc.check_merger(dict(output, sources=[dict(SOURCE)]))
+    assert not merger_core_accepts(output, [dict(SOURCE)])
+
+
+def test_merger_rejects_duplicate_names_like_the_checker():
+    sources = [dict(SOURCE), dict(SOURCE, topic="other/scan")]
+    assert cc.check_merger({"sources": sources})
+    assert not merger_core_accepts({}, sources)
