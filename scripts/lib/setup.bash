@@ -27,7 +27,7 @@ DEBIAN_PACKAGES=(
   python3-diagnostic-msgs python3-numpy python3-yaml python3-matplotlib python3-tqdm
   python3-psutil
   # rviz screenshot check
-  rviz xvfb imagemagick
+  rviz xvfb xauth imagemagick
 )
 
 log() { printf '\033[1m== %s\033[0m\n' "$*"; }
