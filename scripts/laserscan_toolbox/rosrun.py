@@ -9,6 +9,8 @@ import os
 import signal
 import socket
 import subprocess
+import sys
+import threading
 import time
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -48,8 +50,17 @@ def log_tail(path, n=25):
         return ""
 
 
+def _exit_on_sigterm(signum, _frame):
+    sys.exit(128 + signum)
+
+
 class Master:
-    """A private roscore; sets ROS_MASTER_URI etc. in os.environ for this process too."""
+    """A private roscore; sets ROS_MASTER_URI etc. in os.environ for this process too.
+
+    The children run in their own sessions (a Ctrl-C meant for the tool must not kill them
+    before the tool has saved its results), so the tool itself must stop them: SIGTERM is
+    turned into SystemExit, which runs every ``__exit__`` and leaves no roscore behind.
+    """
 
     def __init__(self, workdir, sim_time=True):
         self.workdir = workdir
@@ -58,6 +69,8 @@ class Master:
         self.port = None
 
     def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, _exit_on_sigterm)
         os.makedirs(self.workdir, exist_ok=True)
         self.port = free_port()
         self.uri = "http://127.0.0.1:%d" % self.port
