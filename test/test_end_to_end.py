@@ -20,7 +20,7 @@ SCRIPTS = os.path.join(REPO, "scripts")
 sys.path.insert(0, SCRIPTS)
 from laserscan_toolbox import evaluate as ev  # noqa: E402
 
-DATA = os.path.join(REPO, "..", "shared", "data")
+DATA = os.path.join(REPO, "test", "data", "real")
 DUAL_BAG = os.path.join(DATA, "dual_lidar_scans_demo.bag")
 DURATION = 18.0
 MERGED, LIDAR_ONLY = "/merged_scan", "/lidar_scan"

@@ -1,7 +1,7 @@
-"""The core on real recordings (read from <repo>/../shared/data, never copied):
+"""The core on real recordings (read from <repo>/test/data/real):
 
 - dual_lidar_scans_demo.bag: two real lidars on a standing robot, mount poses from
-  ../shared/data/README.md. Every valid point of each input must appear in the merged scan
+  test/data/real/README.md. Every valid point of each input must appear in the merged scan
   (within one bin and 1 cm) unless a closer point hides it, and every merged range must be a
   real input point.
 - intel-corrected.log.gz (CARMEN): a scan moved by the real wheel odometry (through the core's
@@ -20,11 +20,11 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import merger_reference as ref  # noqa: E402
 import multi_laserscan_merger_core as mlc  # noqa: E402
 
-DATA = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', '..', 'shared', 'data'))
+DATA = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'test', 'data', 'real'))
 TOL = 0.01
 
 OUT = dict(angle_min=-math.pi, angle_max=math.pi, angle_increment=math.pi / 720, range_min=0.0, range_max=30.0)
-# robot -> scanner mounts, from ../shared/data/README.md
+# robot -> scanner mounts, from test/data/real/README.md
 MOUNTS = {
     'front_scanner': ref.yaw_matrix(0.23565, -0.0005, 0.06795, 0.0, 0.0, 0.0),
     'rear_scanner': ref.yaw_matrix(-0.23832, 0.00542, 0.09888, 0.0, 0.0, 3.141592),
