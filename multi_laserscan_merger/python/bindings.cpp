@@ -30,6 +30,8 @@ OutputParams outputFromDict(const py::dict& d)
   get(d, "range_max", o.range_max);
   get(d, "use_inf", o.use_inf);
   get(d, "inf_epsilon", o.inf_epsilon);
+  get(d, "finite_only", o.finite_only);
+  get(d, "footprint", o.footprint);
   return o;
 }
 
@@ -44,6 +46,8 @@ SourceParams sourceFromDict(const py::dict& d)
   get(d, "range_min", s.range_min);
   get(d, "range_max", s.range_max);
   get(d, "deskew", s.deskew);
+  get(d, "too_close_is_obstacle", s.too_close_is_obstacle);
+  get(d, "footprint_filter", s.footprint_filter);
   return s;
 }
 
@@ -125,6 +129,14 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
       return f == nullptr ? py::object(py::none()) : py::object(py::str(f));
     },
     py::arg("scan"), "None when the scan is usable, else the fault");
+  m.def(
+    "stamp_fault",
+    [](std::uint32_t sec, std::uint32_t nsec, std::int64_t now_ns) -> py::object {
+      const char* f = stampFault(sec, nsec, now_ns);
+      return f == nullptr ? py::object(py::none()) : py::object(py::str(f));
+    },
+    py::arg("sec"), py::arg("nsec"), py::arg("now_ns"), "None when the stamp is usable, else the fault");
+  m.def("inside_polygon", &insidePolygon, py::arg("polygon"), py::arg("x"), py::arg("y"));
   m.def(
     "source_in_fov", [](const py::dict& source, double angle) { return sourceFromDict(source).inFieldOfView(angle); },
     py::arg("source"), py::arg("angle"));

@@ -27,13 +27,12 @@ namespace
 {
 // The loop, with or without the per-beam step of the transform (deskew), so that the usual
 // case does not pay for the interpolation.
-template <bool kStep, bool kAllInView>
-inline __attribute__((always_inline)) void projectLoop(std::size_t len, const float* __restrict rg,
-                                                       const float* __restrict fg, const float* __restrict cg,
-                                                       const float* __restrict sg, const float* __restrict m,
-                                                       float rmin, float rmax, int keep_close, float amin,
-                                                       float inv_inc, int wrap, unsigned n_out, int* __restrict kg,
-                                                       float* __restrict og)
+template <bool kStep, bool kAllInView, bool kPoints>
+inline __attribute__((always_inline)) void
+projectLoop(std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
+            const float* __restrict sg, const float* __restrict m, float rmin, float rmax, float rmax_msg,
+            int keep_close, float amin, float inv_inc, int wrap, unsigned n_out, int* __restrict kg,
+            float* __restrict og, float* __restrict xs, float* __restrict ys)
 {
   constexpr float kTwoPi = 6.28318530717958647692f;
   constexpr std::int32_t kInfBits = 0x7f800000;
@@ -47,6 +46,7 @@ inline __attribute__((always_inline)) void projectLoop(std::size_t len, const fl
   const std::int32_t min_bits = bitsOf(rmin0);
   const float max_real = 0.5f * FLT_MAX;  // below kInvalidMark
   const std::int32_t max_bits = bitsOf(rmax < max_real ? rmax : max_real);
+  const std::int32_t msg_max_bits = bitsOf(rmax_msg < max_real ? rmax_msg : max_real);
   const float m00 = m[0], m01 = m[1], m02 = m[2], m10 = m[3], m11 = m[4], m12 = m[5];
   const float d00 = m[6], d01 = m[7], d02 = m[8], d10 = m[9], d11 = m[10], d12 = m[11];
   for (std::size_t j = 0; j < len; ++j)
@@ -57,8 +57,9 @@ inline __attribute__((always_inline)) void projectLoop(std::size_t len, const fl
     const int in_view = kAllInView ? 1 : fg[j] > 0.5f;
     const int too_close = in_view & keep_close & (b == kMinusInfBits);  // kept: a reading at range_min
     const int ok = (in_view & (b >= min_bits) & (b <= max_bits)) | too_close;
-    // Below range_min, NaN, or -Inf not kept.
-    const int invalid = in_view & (too_close ^ 1) & ((b < min_bits) | (b > kInfBits));
+    // Below range_min, beyond the source's range_max but within the message's, NaN, or -Inf not kept.
+    const int invalid =
+      in_view & (too_close ^ 1) & ((b < min_bits) | ((b > max_bits) & (b <= msg_max_bits)) | (b > kInfBits));
     // Beams neither ok nor invalid go to a scratch bin: their range does not matter.
     const float r = ok ? (too_close ? rmin0 : rg[j]) : kFar;
     float a00 = m00, a01 = m01, a02 = m02, a10 = m10, a11 = m11, a12 = m12;
@@ -77,6 +78,11 @@ inline __attribute__((always_inline)) void projectLoop(std::size_t len, const fl
     k -= k >= wrap ? wrap : 0;
     const float d = std::sqrt(x * x + y * y);
     og[j] = ok ? d : kInvalidMark;
+    if (kPoints)
+    {
+      xs[j] = x;
+      ys[j] = y;
+    }
     kg[j] = ((ok | invalid) & (static_cast<unsigned>(k) < n_out)) ? k : static_cast<int>(n_out + (j & (kScratch - 1)));
   }
 }
@@ -85,19 +91,26 @@ inline __attribute__((always_inline)) void projectLoop(std::size_t len, const fl
 // AVX-512, AVX2+FMA and baseline versions; the CPU picks at load time.
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void projectBeams(
   std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
-  const float* __restrict sg, const float* __restrict m, float rmin, float rmax, bool keep_too_close, float amin,
-  float inv_inc, int wrap, unsigned n_out, int* __restrict kg, float* __restrict og)
+  const float* __restrict sg, const float* __restrict m, float rmin, float rmax, float rmax_msg, bool keep_too_close,
+  float amin, float inv_inc, int wrap, unsigned n_out, int* __restrict kg, float* __restrict og,
+  float* __restrict xs, float* __restrict ys)
 {
   const int kc = keep_too_close ? 1 : 0;
   const bool step = m[6] != 0.0f || m[7] != 0.0f || m[8] != 0.0f || m[9] != 0.0f || m[10] != 0.0f || m[11] != 0.0f;
-  if (fg == nullptr && step)
-    projectLoop<true, true>(len, rg, fg, cg, sg, m, rmin, rmax, kc, amin, inv_inc, wrap, n_out, kg, og);
+#define MLM_PROJECT(kStep, kAll, kPoints)                                                                      \
+  projectLoop<kStep, kAll, kPoints>(len, rg, fg, cg, sg, m, rmin, rmax, rmax_msg, kc, amin, inv_inc, wrap, n_out, \
+                                    kg, og, xs, ys)
+  if (xs != nullptr)  // footprint filter on: the rare case, one variant (mask table and steps as data)
+    MLM_PROJECT(true, false, true);
+  else if (fg == nullptr && step)
+    MLM_PROJECT(true, true, false);
   else if (fg == nullptr)
-    projectLoop<false, true>(len, rg, fg, cg, sg, m, rmin, rmax, kc, amin, inv_inc, wrap, n_out, kg, og);
+    MLM_PROJECT(false, true, false);
   else if (step)
-    projectLoop<true, false>(len, rg, fg, cg, sg, m, rmin, rmax, kc, amin, inv_inc, wrap, n_out, kg, og);
+    MLM_PROJECT(true, false, false);
   else
-    projectLoop<false, false>(len, rg, fg, cg, sg, m, rmin, rmax, kc, amin, inv_inc, wrap, n_out, kg, og);
+    MLM_PROJECT(false, false, false);
+#undef MLM_PROJECT
 }
 
 }  // namespace multi_laserscan_merger

@@ -25,23 +25,55 @@ Eigen::Matrix<float, 2, 3> planarPart(const Eigen::Isometry3d& t)
   return m;
 }
 
-// Output limits: kInvalidMark (only invalid readings there) becomes NaN, beyond range_max is
-// no return (+Inf or range_max + inf_epsilon), below range_min is -Inf (REP 117: too close).
-// Vectorised like projectBeams.
+// Output limits: kInvalidMark (only invalid readings there) becomes `invalid` (NaN), beyond
+// range_max is no return (+Inf or range_max + inf_epsilon), below range_min is `too_close`
+// (-Inf, REP 117). Vectorised like projectBeams.
 // The fusion bins are reset to +Inf on the way, ready for the next merge.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void applyOutputLimits(
-  float* __restrict in, float* __restrict r, std::size_t n, float rmin, float rmax, float no_return)
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void
+applyOutputLimits(float* __restrict in, float* __restrict r, std::size_t n, float rmin, float rmax, float no_return,
+                  float invalid, float too_close)
 {
   for (std::size_t k = 0; k < n; ++k)
   {
     float v = in[k];
     in[k] = kFInf;
-    v = v == kInvalidMark ? kFNaN : v > rmax ? no_return : v;
-    v = v < rmin ? -kFInf : v;
+    v = v == kInvalidMark ? invalid : v > rmax ? no_return : v < rmin ? too_close : v;
     r[k] = v;
   }
 }
 }  // namespace
+
+const char* stampFault(std::uint32_t sec, std::uint32_t nsec, std::int64_t now_ns)
+{
+  if (nsec >= 1000000000u)
+    return "stamp nsecs >= 1e9 (not normalised)";
+  // Both are below 2^32 s in nanoseconds (< 2^63): the difference cannot overflow.
+  const std::int64_t offset = static_cast<std::int64_t>(sec) * 1000000000LL + nsec - now_ns;
+  if (offset > kMaxClockOffsetNs)
+    return "stamp more than 2^31 s ahead of the clock";
+  if (offset < -kMaxClockOffsetNs)
+    return "stamp more than 2^31 s behind the clock";
+  return nullptr;
+}
+
+std::string tf2FrameId(const std::string& frame_id, bool& stripped)
+{
+  stripped = !frame_id.empty() && frame_id[0] == '/';
+  return stripped ? frame_id.substr(1) : frame_id;
+}
+
+bool insidePolygon(const std::vector<std::array<double, 2>>& polygon, double x, double y)
+{
+  bool inside = false;
+  for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++)
+  {
+    const double xi = polygon[i][0], yi = polygon[i][1], xj = polygon[j][0], yj = polygon[j][1];
+    // Edge (j, i) crosses the horizontal ray from (x, y) towards +x.
+    if ((yi > y) != (yj > y) && x < xj + (y - yj) * (xi - xj) / (yi - yj))
+      inside = !inside;
+  }
+  return inside;
+}
 
 std::size_t expectedBeamCount(const ScanView& s)
 {
@@ -66,6 +98,8 @@ const char* scanFault(const ScanView& s)
     return "angle_max < angle_min";
   if (!std::isfinite(s.time_increment))
     return "non-finite time_increment";
+  if (std::abs(s.time_increment) * static_cast<double>(s.n_ranges) > kMaxScanDuration)
+    return "time_increment * beams spans more than 60 s";
   if (std::isnan(s.range_min) || std::isnan(s.range_max) || s.range_min > s.range_max)
     return "range_min/range_max NaN or range_min > range_max";
   if (s.n_ranges == 0 || s.ranges == nullptr)
@@ -109,6 +143,8 @@ MergerCore::MergerCore(const MergerParams& params) : params_(params)
   n_circle_ = std::abs(turns - rounded) < 1e-6 * std::max(1.0, turns) ? static_cast<std::size_t>(rounded) : 0;
   out_angle_min_ = static_cast<float>(o.angle_min);
   out_inv_increment_ = static_cast<float>(1.0 / o.angle_increment);
+  for (const auto& p : o.footprint)
+    footprint_radius_ = std::max(footprint_radius_, std::hypot(p[0], p[1]));
   caches_.resize(params_.sources.size());
 }
 
@@ -254,6 +290,9 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
   const float rmin = static_cast<float>(o.range_min);
   const float rmax = static_cast<float>(o.range_max);
   const float no_return = o.use_inf ? kFInf : static_cast<float>(o.range_max + o.inf_epsilon);
+  // finite_only: 0 is below range_min (> 0, validated), which consumers discard.
+  const float invalid = o.finite_only ? 0.0f : kFNaN;
+  const float too_close = o.finite_only ? 0.0f : -kFInf;
   if (any_intensity)
   {
     out.intensities.assign(ibins_.begin(), ibins_.begin() + static_cast<std::ptrdiff_t>(n_out_));
@@ -264,7 +303,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
   else
     out.intensities.clear();
   out.ranges.resize(n_out_);
-  applyOutputLimits(r.data(), out.ranges.data(), n_out_, rmin, rmax, no_return);
+  applyOutputLimits(r.data(), out.ranges.data(), n_out_, rmin, rmax, no_return, invalid, too_close);
 }
 
 template <bool kInterpolate>
@@ -278,6 +317,7 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
   // Source limits only tighten the message's own.
   const float rmin = static_cast<float>(std::max(scan.range_min, sp.range_min));
   const float rmax = static_cast<float>(std::min(scan.range_max, sp.range_max));
+  const float rmax_msg = static_cast<float>(scan.range_max);
   const float amin = out_angle_min_;
   const float inv_inc = out_inv_increment_;
   // Bins from one full turn on are the first ones again; no wrap when the increment does not divide 2*pi.
@@ -286,12 +326,18 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
   // -Inf ("closer than the sensor can measure") is kept as an obstacle at the sensor's
   // range_min, unless the source's own range_min is tighter: then everything closer
   // than it (the robot's body, typically) is deliberately ignored like an invalid reading.
-  const bool keep_too_close = !(sp.range_min > scan.range_min);
+  const bool keep_too_close = sp.too_close_is_obstacle && !(sp.range_min > scan.range_min);
+  const bool footprint = sp.footprint_filter && !params_.output.footprint.empty();
 
   if (bin_buffer_.size() < n)
   {
     bin_buffer_.resize(n);
     range_buffer_.resize(n);
+  }
+  if (footprint && x_buffer_.size() < n)
+  {
+    x_buffer_.resize(n);
+    y_buffer_.resize(n);
   }
   int* kb = bin_buffer_.data();
   float* rb = range_buffer_.data();
@@ -302,7 +348,8 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
 
   // Pass 1 (vectorised): output bin and range of every beam of the mask's span (the others
   // are never visited); without the mask's table when the whole span is inside it.
-  const float* fov_or_all = c.span_all_in ? nullptr : fov;
+  // (The footprint variant of the kernel always reads the mask's table.)
+  const float* fov_or_all = c.span_all_in && !footprint ? nullptr : fov;
   for (std::size_t b0 = 0, g = 0; b0 < n; b0 += group_size, ++g)
   {
     const std::size_t lo = std::max(b0, c.first_in), hi = std::min(b0 + group_size, c.end_in);
@@ -337,7 +384,18 @@ void MergerCore::addScan(std::size_t source, const SourceInput& in, const Eigen:
                               d11,
                               d12 };
     projectBeams(hi - lo, ranges + lo, fov_or_all ? fov_or_all + lo : nullptr, cs + lo, sn + lo, m_row, rmin, rmax,
-                 keep_too_close, amin, inv_inc, wrap, n_out, kb + lo, rb + lo);
+                 rmax_msg, keep_too_close, amin, inv_inc, wrap, n_out, kb + lo, rb + lo,
+                 footprint ? x_buffer_.data() + lo : nullptr, footprint ? y_buffer_.data() + lo : nullptr);
+  }
+
+  // Footprint: a return on the robot itself is no obstacle, and nothing behind it was seen:
+  // its direction becomes invalid. Only points nearer than the farthest vertex are tested.
+  if (footprint)
+  {
+    const float radius = static_cast<float>(footprint_radius_);
+    for (std::size_t i = c.first_in; i < c.end_in; ++i)
+      if (rb[i] <= radius && insidePolygon(params_.output.footprint, x_buffer_[i], y_buffer_[i]))
+        rb[i] = kInvalidMark;
   }
 
   // Pass 2: keep the closest range per bin. Invalid beams carry kInvalidMark, which only

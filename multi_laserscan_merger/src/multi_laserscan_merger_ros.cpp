@@ -56,8 +56,9 @@ SourceParams readSource(XmlRpc::XmlRpcValue& item, const std::string& prefix)
   if (item.getType() != XmlRpc::XmlRpcValue::TypeStruct)
     throw ParameterError(prefix, "must be a dictionary {name, topic, timeout, angle_min, ...}");
   SourceParams s;
-  static const std::set<std::string> known = { "name",      "topic",     "timeout",   "angle_min",
-                                               "angle_max", "range_min", "range_max", "deskew" };
+  static const std::set<std::string> known = { "name",      "topic",     "timeout", "angle_min",
+                                               "angle_max", "range_min", "range_max", "deskew",
+                                               "too_close_is_obstacle", "footprint_filter" };
   for (auto& kv : item)
     if (known.count(kv.first) == 0)
       throw ParameterError(prefix + "." + kv.first, "unknown key (a typo?)");
@@ -82,13 +83,34 @@ SourceParams readSource(XmlRpc::XmlRpcValue& item, const std::string& prefix)
   number("angle_max", s.angle_max);
   number("range_min", s.range_min);
   number("range_max", s.range_max);
-  if (item.hasMember("deskew"))
-  {
-    if (item["deskew"].getType() != XmlRpc::XmlRpcValue::TypeBoolean)
-      throw ParameterError(prefix + ".deskew", "must be true or false");
-    s.deskew = static_cast<bool>(item["deskew"]);
-  }
+  auto flag = [&](const char* key, bool& value) {
+    if (!item.hasMember(key))
+      return;
+    if (item[key].getType() != XmlRpc::XmlRpcValue::TypeBoolean)
+      throw ParameterError(prefix + "." + key, "must be true or false");
+    value = static_cast<bool>(item[key]);
+  };
+  flag("deskew", s.deskew);
+  flag("too_close_is_obstacle", s.too_close_is_obstacle);
+  flag("footprint_filter", s.footprint_filter);
   return s;
+}
+
+void readPolygon(const ros::NodeHandle& nh, const std::string& name, std::vector<std::array<double, 2>>& polygon)
+{
+  XmlRpc::XmlRpcValue v;
+  if (!nh.getParam(name, v))
+    return;
+  if (v.getType() != XmlRpc::XmlRpcValue::TypeArray)
+    throw ParameterError(name, "must be a list of [x, y] points (m, in output_frame)");
+  polygon.clear();
+  for (int i = 0; i < v.size(); ++i)
+  {
+    XmlRpc::XmlRpcValue& p = v[i];
+    if (p.getType() != XmlRpc::XmlRpcValue::TypeArray || p.size() != 2 || !isNumber(p[0]) || !isNumber(p[1]))
+      throw ParameterError(name, "point " + std::to_string(i) + " is not a pair of numbers [x, y]");
+    polygon.push_back({ toDouble(p[0]), toDouble(p[1]) });
+  }
 }
 
 ScanView viewOf(const sensor_msgs::LaserScan& m)
@@ -120,6 +142,8 @@ MergerParams loadParams(const ros::NodeHandle& pnh)
   readDouble(pnh, "range_max", p.output.range_max);
   readBool(pnh, "use_inf", p.output.use_inf);
   readDouble(pnh, "inf_epsilon", p.output.inf_epsilon);
+  readBool(pnh, "finite_only", p.output.finite_only);
+  readPolygon(pnh, "footprint", p.output.footprint);
   readString(pnh, "odom_topic", p.odom_topic);
   double queue = p.odom_queue_size;
   readDouble(pnh, "odom_queue_size", queue);
@@ -132,7 +156,7 @@ MergerParams loadParams(const ros::NodeHandle& pnh)
   if (!pnh.getParam("sources", list))
     throw ParameterError("sources",
                          "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
-                         "range_max, deskew}");
+                         "range_max, deskew, too_close_is_obstacle, footprint_filter}");
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw ParameterError("sources", "must be a list of dictionaries");
   for (int i = 0; i < list.size(); ++i)
@@ -145,6 +169,13 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   : nh_(nh), private_nh_(private_nh), name_(private_nh.getNamespace()), params_(loadParams(private_nh))
 {
   core_ = std::make_unique<MergerCore>(params_);
+  // A source on the output topic would merge the merger's own output into itself.
+  const std::string output_topic = nh_.resolveName(kOutputTopic);
+  for (std::size_t i = 0; i < params_.sources.size(); ++i)
+    if (nh_.resolveName(params_.sources[i].topic) == output_topic)
+      throw ParameterError("sources[" + std::to_string(i) + "].topic",
+                           "source '" + params_.sources[i].name + "' resolves to '" + output_topic +
+                             "', the merger's own output topic (remap the output or the source)");
   odom_ = OdometryBuffer(static_cast<std::size_t>(params_.odom_queue_size));
   sources_.resize(params_.sources.size());
   inputs_.resize(params_.sources.size());
@@ -153,13 +184,13 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   last_report_ = ros::WallTime::now();
 
   updater_ = std::make_unique<diagnostic_updater::Updater>(nh_, private_nh_, name_);
-  updater_->setHardwareID("none");
+  updater_->setHardwareID(name_);
   for (std::size_t i = 0; i < sources_.size(); ++i)
     updater_->add("source " + params_.sources[i].name,
                   [this, i](diagnostic_updater::DiagnosticStatusWrapper& s) { sourceDiagnostics(i, s); });
   updater_->add("odometry", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { odometryDiagnostics(s); });
 
-  pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 10);
+  pub_ = nh_.advertise<sensor_msgs::LaserScan>(kOutputTopic, 10);
   for (std::size_t i = 0; i < sources_.size(); ++i)
   {
     sources_[i].sub = nh_.subscribe<sensor_msgs::LaserScan>(
@@ -176,9 +207,9 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
                                      [this](const ros::TimerEvent& e) { timerCallback(e); });
   // The updater publishes at its own period (1 s by default) when asked.
   diagnostics_timer_ = nh_.createTimer(ros::Duration(0.5), [this](const ros::TimerEvent&) { updater_->update(); });
-  ROS_INFO("%s: merging %zu sources into '%s' (%zu beams), publish_rate %.1f Hz, motion compensation %s", name_.c_str(),
-           sources_.size(), params_.output.frame.c_str(), core_->beamCount(), params_.publish_rate,
-           params_.odom_topic.empty() ? "off" : ("from '" + params_.odom_topic + "'").c_str());
+  ROS_INFO("%s: merging %zu sources into '%s' on '%s' (%zu beams), publish_rate %.1f Hz, motion compensation %s",
+           name_.c_str(), sources_.size(), params_.output.frame.c_str(), output_topic.c_str(), core_->beamCount(),
+           params_.publish_rate, params_.odom_topic.empty() ? "off" : ("from '" + params_.odom_topic + "'").c_str());
 }
 
 void MultiLaserScanMergerRos::checkTimeJump()
@@ -186,7 +217,8 @@ void MultiLaserScanMergerRos::checkTimeJump()
   const ros::Time now = ros::Time::now();
   if (now < last_now_)
   {
-    clearAll("time jumped backwards by " + std::to_string((last_now_ - now).toSec()) +
+    // In seconds (double): a ros::Duration of a jump of more than 2^31 s would throw.
+    clearAll("time jumped backwards by " + std::to_string(last_now_.toSec() - now.toSec()) +
              " s (bag loop or restarted clock)");
     tf_buffer_.clear();
   }
@@ -202,22 +234,27 @@ void MultiLaserScanMergerRos::clearAll(const std::string& why)
     s.pending.reset();
   }
   odom_.clear();
-  last_published_ = -1.0;
+  odom_newest_ = ros::Time();
+  last_published_ = ros::Time();
 }
 
-bool MultiLaserScanMergerRos::tryTransform(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg,
+bool MultiLaserScanMergerRos::tryTransform(std::size_t i, const std::string& frame, const ros::Time& stamp,
                                            std::string& error)
 {
-  const std::string& frame = msg->header.frame_id;
-  // Never blocks: canTransform without a timeout, the scan waits as pending instead.
-  if (!tf_buffer_.canTransform(params_.output.frame, frame, msg->header.stamp, &error))
-    return false;
+  // Never blocks: canTransform without a timeout, the scan waits as pending instead. tf2 works
+  // with ros::Time and ros::Duration internally: whatever it throws is this scan's failure.
   try
   {
+    if (!tf_buffer_.canTransform(params_.output.frame, frame, stamp, &error))
+    {
+      if (error.empty())
+        error = "tf2 gave no reason";
+      return false;
+    }
     sources_[i].output_T_sensor =
-      tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, msg->header.stamp));
+      tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, stamp));
   }
-  catch (const tf2::TransformException& e)
+  catch (const std::exception& e)
   {
     error = e.what();
     return false;
@@ -225,29 +262,69 @@ bool MultiLaserScanMergerRos::tryTransform(std::size_t i, const sensor_msgs::Las
   return true;
 }
 
+void MultiLaserScanMergerRos::drop(std::size_t i, std::string why)
+{
+  ++sources_[i].dropped;
+  sources_[i].last_drop = std::move(why);
+}
+
 void MultiLaserScanMergerRos::scanCallback(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg)
 {
   std::lock_guard<std::mutex> lock(mutex_);
+  // Last line of defence in a shared nodelet manager: no message may take the process down.
+  try
+  {
+    handleScan(i, msg);
+  }
+  catch (const std::exception& e)
+  {
+    ++sources_[i].malformed;
+    drop(i, std::string("unexpected error: ") + e.what());
+    ROS_ERROR_THROTTLE(5.0, "%s: source '%s' (%s): scan dropped after an unexpected error (please report): %s",
+                       name_.c_str(), params_.sources[i].name.c_str(), params_.sources[i].topic.c_str(), e.what());
+  }
+}
+
+void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg)
+{
   checkTimeJump();
   SourceState& s = sources_[i];
   const SourceParams& sp = params_.sources[i];
   ++s.received;
   const ScanView view = viewOf(*msg);
-  if (const char* fault = scanFault(view))
+  bool stripped = false;
+  const std::string frame = tf2FrameId(msg->header.frame_id, stripped);
+  const ros::Time now = ros::Time::now();
+  const char* fault = scanFault(view);
+  if (fault == nullptr && frame.empty())
+    fault = "empty frame_id";
+  if (fault == nullptr)
+    fault = stampFault(msg->header.stamp.sec, msg->header.stamp.nsec, static_cast<std::int64_t>(now.toNSec()));
+  if (fault != nullptr)
   {
     ++s.malformed;
+    char stamp[64];
+    std::snprintf(stamp, sizeof stamp, "%u.%09u", msg->header.stamp.sec, msg->header.stamp.nsec);
+    drop(i, std::string("malformed scan: ") + fault + " (stamp " + stamp + ", frame_id '" + msg->header.frame_id + "')");
     ROS_WARN_THROTTLE(5.0,
-                      "%s: source '%s' (%s): malformed scan dropped: %s (%zu ranges, %zu intensities, angles "
-                      "%g..%g step %g)",
-                      name_.c_str(), sp.name.c_str(), sp.topic.c_str(), fault, msg->ranges.size(),
-                      msg->intensities.size(), msg->angle_min, msg->angle_max, msg->angle_increment);
+                      "%s: source '%s' (%s): malformed scan dropped: %s (stamp %s, clock %.3f, frame_id '%s', %zu "
+                      "ranges, %zu intensities, angles %g..%g step %g)",
+                      name_.c_str(), sp.name.c_str(), sp.topic.c_str(), fault, stamp, now.toSec(),
+                      msg->header.frame_id.c_str(), msg->ranges.size(), msg->intensities.size(), msg->angle_min,
+                      msg->angle_max, msg->angle_increment);
     retryPending();
     return;
+  }
+  if (stripped && !s.slash_reported)
+  {
+    s.slash_reported = true;
+    ROS_WARN("%s: source '%s' (%s): frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
+             name_.c_str(), sp.name.c_str(), sp.topic.c_str(), msg->header.frame_id.c_str(), frame.c_str());
   }
   if (s.scan && view.stamp < s.scan->header.stamp.toSec() - 1.0)
     clearAll("source '" + sp.name + "' stamps jumped backwards");
   std::string error;
-  if (tryTransform(i, msg, error))
+  if (tryTransform(i, frame, msg->header.stamp, error))
   {
     s.pending.reset();
     accept(i, msg);
@@ -257,11 +334,13 @@ void MultiLaserScanMergerRos::scanCallback(std::size_t i, const sensor_msgs::Las
     if (s.pending)
     {
       ++s.transform_failures;  // replaced before its transform came
+      drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "': " + s.pending_error);
       ROS_WARN_THROTTLE(5.0, "%s: source '%s': no transform '%s' -> '%s' at %.3f, scan dropped: %s", name_.c_str(),
-                        sp.name.c_str(), s.pending->header.frame_id.c_str(), params_.output.frame.c_str(),
+                        sp.name.c_str(), s.pending_frame.c_str(), params_.output.frame.c_str(),
                         s.pending->header.stamp.toSec(), s.pending_error.c_str());
     }
     s.pending = msg;
+    s.pending_frame = frame;
     s.pending_since = ros::WallTime::now();
     s.pending_error = error;
   }
@@ -277,7 +356,7 @@ void MultiLaserScanMergerRos::retryPending()
       continue;
     const sensor_msgs::LaserScan::ConstPtr msg = s.pending;
     std::string error;
-    if (tryTransform(i, msg, error))
+    if (tryTransform(i, s.pending_frame, msg->header.stamp, error))
     {
       s.pending.reset();
       accept(i, msg);
@@ -285,11 +364,15 @@ void MultiLaserScanMergerRos::retryPending()
     else if ((ros::WallTime::now() - s.pending_since).toSec() > kTransformWait)
     {
       ++s.transform_failures;
+      drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "' within " +
+                std::to_string(kTransformWait).substr(0, 3) + " s: " + error);
       ROS_WARN_THROTTLE(5.0, "%s: source '%s': no transform '%s' -> '%s' at %.3f within %.1f s, scan dropped: %s",
-                        name_.c_str(), params_.sources[i].name.c_str(), msg->header.frame_id.c_str(),
+                        name_.c_str(), params_.sources[i].name.c_str(), s.pending_frame.c_str(),
                         params_.output.frame.c_str(), msg->header.stamp.toSec(), kTransformWait, error.c_str());
       s.pending.reset();
     }
+    else
+      s.pending_error = error;
   }
 }
 
@@ -302,33 +385,78 @@ void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan
   if (params_.publish_rate > 0.0)
     return;
   // publish_rate 0: one output per new scan, at the newest scan's stamp.
-  double t_out = msg->header.stamp.toSec();
+  ros::Time t_out = msg->header.stamp;
   for (const auto& s : sources_)
     if (s.scan)
-      t_out = std::max(t_out, s.scan->header.stamp.toSec());
+      t_out = std::max(t_out, s.scan->header.stamp);
   mergeAndPublish(t_out);
 }
 
 void MultiLaserScanMergerRos::odomCallback(const nav_msgs::Odometry::ConstPtr& msg)
 {
   std::lock_guard<std::mutex> lock(mutex_);
+  try
+  {
+    handleOdometry(msg);
+  }
+  catch (const std::exception& e)
+  {
+    ++odom_rejected_;
+    odom_last_rejection_ = std::string("unexpected error: ") + e.what();
+    ROS_ERROR_THROTTLE(5.0, "%s: odometry message dropped after an unexpected error (please report): %s",
+                       name_.c_str(), e.what());
+  }
+}
+
+void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr& msg)
+{
   checkTimeJump();
   ++odom_received_;
   last_odom_arrival_ = ros::WallTime::now();
-  odom_child_frame_ = msg->child_frame_id;
+  const std::string topic = nh_.resolveName(params_.odom_topic);
+  const ros::Time now = ros::Time::now();
+  if (const char* fault =
+        stampFault(msg->header.stamp.sec, msg->header.stamp.nsec, static_cast<std::int64_t>(now.toNSec())))
+  {
+    ++odom_rejected_;
+    char stamp[64];
+    std::snprintf(stamp, sizeof stamp, "%u.%09u", msg->header.stamp.sec, msg->header.stamp.nsec);
+    odom_last_rejection_ = std::string(fault) + " (stamp " + stamp + ")";
+    ROS_WARN_THROTTLE(5.0, "%s: odometry (%s) with stamp %s ignored: %s (clock %.3f)", name_.c_str(), topic.c_str(),
+                      stamp, fault, now.toSec());
+    retryPending();
+    return;
+  }
   const auto& p = msg->pose.pose;
   const auto r = odom_.add(msg->header.stamp.toSec(), Eigen::Vector3d(p.position.x, p.position.y, p.position.z),
                            Eigen::Quaterniond(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z));
+  if (r == OdometryBuffer::AddResult::kRejected)
+  {
+    ++odom_rejected_;
+    odom_last_rejection_ = "non-finite pose or zero quaternion";
+    ROS_WARN_THROTTLE(5.0, "%s: odometry (%s) with a non-finite pose or a zero quaternion ignored (stamp %.3f)",
+                      name_.c_str(), topic.c_str(), msg->header.stamp.toSec());
+    retryPending();
+    return;
+  }
   if (r == OdometryBuffer::AddResult::kClearedBackwards)
   {
     ROS_WARN_THROTTLE(5.0, "%s: odometry time jumped backwards (to %.3f): odometry buffer cleared", name_.c_str(),
                       msg->header.stamp.toSec());
     for (auto& s : sources_)
       s.scan.reset();  // they belong to the other timeline
-    last_published_ = -1.0;
+    last_published_ = ros::Time();
   }
-  else if (r == OdometryBuffer::AddResult::kRejected)
-    ROS_WARN_THROTTLE(5.0, "%s: odometry message with a non-finite pose or zero quaternion ignored", name_.c_str());
+  if (r != OdometryBuffer::AddResult::kOutOfOrder)
+    odom_newest_ = msg->header.stamp;
+  bool stripped = false;
+  odom_child_frame_ = tf2FrameId(msg->child_frame_id, stripped);
+  if (stripped && !odom_slash_reported_)
+  {
+    odom_slash_reported_ = true;
+    ROS_WARN("%s: odometry (%s): child_frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
+             name_.c_str(), topic.c_str(), msg->child_frame_id.c_str(), odom_child_frame_.c_str());
+  }
   retryPending();
 }
 
@@ -340,15 +468,19 @@ void MultiLaserScanMergerRos::timerCallback(const ros::TimerEvent&)
   // With a rate, the output is synchronised to the newest data there is: the newest scan, or
   // the newest odometry when it is newer (everything moved to it). Never now(): no pose is known
   // for it. A tick with nothing newer than the last output publishes nothing.
-  double t_out = -1.0;
+  bool any = false;
+  ros::Time t_out;
   for (const auto& s : sources_)
     if (s.scan)
-      t_out = std::max(t_out, s.scan->header.stamp.toSec());
-  if (t_out < 0.0)
+    {
+      t_out = std::max(t_out, s.scan->header.stamp);
+      any = true;
+    }
+  if (!any)
     return;
   if (!odom_.empty())
-    t_out = std::max(t_out, odom_.newestTime());
-  if (t_out <= last_published_)
+    t_out = std::max(t_out, odom_newest_);
+  if (!last_published_.isZero() && t_out <= last_published_)
     return;
   mergeAndPublish(t_out);
 }
@@ -365,12 +497,23 @@ bool MultiLaserScanMergerRos::robotToOutput(Eigen::Isometry3d& out)
                       name_.c_str(), odom_child_frame_.c_str(), params_.output.frame.c_str(), error.c_str());
     return false;
   }
-  out = tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, odom_child_frame_, ros::Time(0)));
+  try
+  {
+    out = tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, odom_child_frame_, ros::Time(0)));
+  }
+  catch (const std::exception& e)
+  {
+    ROS_WARN_THROTTLE(5.0, "%s: no transform '%s' -> '%s' (odometry child frame): motion compensation skipped: %s",
+                      name_.c_str(), odom_child_frame_.c_str(), params_.output.frame.c_str(), e.what());
+    return false;
+  }
   return true;
 }
 
-void MultiLaserScanMergerRos::mergeAndPublish(double t_out)
+void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
 {
+  // The core interpolates in double seconds; the message carries the integer stamp unchanged.
+  const double t_out = stamp.toSec();
   for (std::size_t i = 0; i < sources_.size(); ++i)
   {
     inputs_[i].present = static_cast<bool>(sources_[i].scan);
@@ -412,7 +555,7 @@ void MultiLaserScanMergerRos::mergeAndPublish(double t_out)
   }
 
   auto msg = boost::make_shared<sensor_msgs::LaserScan>();
-  msg->header.stamp.fromSec(t_out);
+  msg->header.stamp = stamp;
   msg->header.frame_id = params_.output.frame;
   msg->angle_min = static_cast<float>(params_.output.angle_min);
   msg->angle_increment = static_cast<float>(params_.output.angle_increment);
@@ -424,7 +567,7 @@ void MultiLaserScanMergerRos::mergeAndPublish(double t_out)
   msg->range_max = static_cast<float>(params_.output.range_max);
   msg->ranges = merged_.ranges;
   msg->intensities = merged_.intensities;
-  last_published_ = t_out;
+  last_published_ = stamp;
   pub_.publish(sensor_msgs::LaserScan::ConstPtr(msg));  // zero-copy in a manager; not touched afterwards
 }
 
@@ -437,7 +580,10 @@ void MultiLaserScanMergerRos::sourceDiagnostics(std::size_t i, diagnostic_update
   const double window = std::max(1e-3, (now - last_report_).toSec());
   const double rate = static_cast<double>(s.received - s.received_at_last_report) / window;
   // The report window is shared by all tasks: the last task (odometry) moves it on.
-  const double age = s.scan ? (ros::Time::now() - s.scan->header.stamp).toSec() : -1.0;
+  // In seconds (double): no ros::Duration of stamps, which may be far apart.
+  const double age = s.scan ? ros::Time::now().toSec() - s.scan->header.stamp.toSec() : -1.0;
+  const std::size_t dropped_now = s.dropped - s.dropped_at_last_report;
+  s.dropped_at_last_report = s.dropped;
   stat.add("topic", nh_.resolveName(sp.topic));
   stat.add("rate (Hz)", rate);
   stat.add("age of last scan (s)", age);
@@ -445,12 +591,27 @@ void MultiLaserScanMergerRos::sourceDiagnostics(std::size_t i, diagnostic_update
   stat.add("scans left out by timeout", s.timeouts);
   stat.add("transform failures", s.transform_failures);
   stat.add("malformed scans", s.malformed);
-  if (!s.scan)
-    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no scan received yet");
+  stat.add("scans dropped", s.dropped);
+  stat.add("last drop reason", s.last_drop.empty() ? "none" : s.last_drop);
+  using diagnostic_msgs::DiagnosticStatus;
+  if (s.received == 0)
+    stat.summary(DiagnosticStatus::WARN, "no scan received yet");
+  else if (!s.scan && s.pending)
+    stat.summaryf(DiagnosticStatus::WARN, "%zu scans received, none merged yet: waiting for transform: %s", s.received,
+                  s.pending_error.c_str());
+  else if (!s.scan)
+    stat.summaryf(DiagnosticStatus::WARN, "%zu scans received, none merged yet: %zu dropped, last: %s", s.received,
+                  s.dropped, s.last_drop.c_str());
+  else if (age > sp.timeout && dropped_now > 0)
+    stat.summaryf(DiagnosticStatus::WARN, "stale: last merged scan %.1f s old; %zu newer scans dropped, last: %s", age,
+                  dropped_now, s.last_drop.c_str());
   else if (age > sp.timeout)
-    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "stale: last scan %.1f s old, left out of the merge", age);
+    stat.summaryf(DiagnosticStatus::WARN, "stale: last scan %.1f s old, left out of the merge", age);
+  else if (dropped_now > 0)
+    stat.summaryf(DiagnosticStatus::WARN, "merged, but %zu scans dropped since the last report, last: %s", dropped_now,
+                  s.last_drop.c_str());
   else
-    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "merged");
+    stat.summary(DiagnosticStatus::OK, "merged");
 }
 
 void MultiLaserScanMergerRos::odometryDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat)
@@ -466,10 +627,17 @@ void MultiLaserScanMergerRos::odometryDiagnostics(diagnostic_updater::Diagnostic
   }
   stat.add("topic", nh_.resolveName(params_.odom_topic));
   stat.add("messages received", odom_received_);
+  stat.add("messages ignored", odom_rejected_);
+  stat.add("last ignored because", odom_last_rejection_.empty() ? "none" : odom_last_rejection_);
   stat.add("queue entries", odom_.size());
   if (odom_.empty())
   {
-    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no odometry: merging without motion compensation");
+    if (odom_received_ == 0)
+      stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no odometry: merging without motion compensation");
+    else
+      stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                    "%zu odometry messages received, none usable (last: %s): merging without motion compensation",
+                    odom_received_, odom_last_rejection_.c_str());
     return;
   }
   const double age = ros::Time::now().toSec() - odom_.newestTime();

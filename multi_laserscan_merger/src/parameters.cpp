@@ -14,6 +14,8 @@ void OutputParams::validate() const
 {
   if (frame.empty())
     throw ParameterError("output_frame", "must not be empty");
+  if (frame[0] == '/')
+    throw ParameterError("output_frame", "must not start with '/' (tf2 frame ids have no leading slash)");
   if (!std::isfinite(angle_min) || angle_min < -2.0 * kPi || angle_min > 2.0 * kPi)
     throw ParameterError("angle_min", "must be finite and within [-2*pi, 2*pi]");
   if (!std::isfinite(angle_max) || angle_max < -2.0 * kPi || angle_max > 2.0 * kPi)
@@ -34,6 +36,17 @@ void OutputParams::validate() const
     throw ParameterError("range_max", "must be finite when use_inf is false (no return = range_max + inf_epsilon)");
   if (!std::isfinite(inf_epsilon) || inf_epsilon < 0.0)
     throw ParameterError("inf_epsilon", "must be a finite value >= 0");
+  if (finite_only && use_inf)
+    throw ParameterError("finite_only", "needs use_inf: false (no return is then range_max + inf_epsilon)");
+  if (finite_only && !(range_min > 0.0))
+    throw ParameterError("range_min",
+                         "must be > 0 when finite_only is true (invalid and too-close bins are written as 0, "
+                         "below range_min, for consumers to discard)");
+  if (!footprint.empty() && footprint.size() < 3)
+    throw ParameterError("footprint", "needs at least 3 [x, y] points (or none: no footprint filter)");
+  for (std::size_t i = 0; i < footprint.size(); ++i)
+    if (!std::isfinite(footprint[i][0]) || !std::isfinite(footprint[i][1]))
+      throw ParameterError("footprint", "point " + std::to_string(i) + " is not finite");
 }
 
 void SourceParams::validate(const std::string& prefix) const
@@ -79,6 +92,8 @@ void MergerParams::validate() const
     throw ParameterError("odom_queue_size", "must be >= 2 (interpolation needs two entries)");
   if (std::isnan(publish_rate) || publish_rate < 0.0 || !std::isfinite(publish_rate))
     throw ParameterError("publish_rate", "must be a finite value >= 0 Hz (0 = one output per input scan)");
+  if (publish_rate > 0.0 && publish_rate < kMinPublishRate)
+    throw ParameterError("publish_rate", "must be 0 or at least 1e-6 Hz (a period must fit a ros::Duration)");
   if (sources.empty())
     throw ParameterError("sources", "at least one source is needed");
   std::set<std::string> names;

@@ -108,10 +108,14 @@ def reference_merge(out, sources, scans, t_out, odom=None, output_T_robot=None):
         rmin = max(scan['range_min'], src.get('range_min', 0.0))
         rmax = min(scan['range_max'], src.get('range_max', math.inf))
         fov = in_fov(a, src.get('angle_min', -math.pi), src.get('angle_max', math.pi))
-        keep_close = not (src.get('range_min', 0.0) > scan['range_min'])
+        keep_close = src.get('too_close_is_obstacle', True) and not (src.get('range_min', 0.0) > scan['range_min'])
         r = np.where(np.isneginf(r) & keep_close, rmin, r)
         valid = fov & (r >= rmin) & (r <= rmax)
-        invalid = fov & ~(r >= rmin)
+        # Below range_min, NaN, -Inf not kept, or a real return beyond the source's tightened range_max;
+        # beyond the message's own range_max is the driver's "no return".
+        with np.errstate(invalid='ignore'):
+            invalid = fov & (~(r >= rmin) | ((r > rmax) & (r <= scan['range_max'])))
+        footprint = out.get('footprint') if src.get('footprint_filter', True) else None
         t_beam = scan['stamp'] + (i * scan.get('time_increment', 0.0) if src.get('deskew') else 0.0 * i)
         ks, rs = [], []
         for b in np.nonzero(valid | invalid)[0]:
@@ -122,7 +126,9 @@ def reference_merge(out, sources, scans, t_out, odom=None, output_T_robot=None):
             if valid[b]:
                 p = t @ np.array([r[b] * math.cos(a[b]), r[b] * math.sin(a[b]), 0.0, 1.0])
                 k = int(bin_of(out, math.atan2(p[1], p[0])))
-                if k >= 0:
+                if k >= 0 and footprint and inside(footprint, p[0], p[1]):
+                    nan_mark[k] = True  # on the robot: its direction is invalid
+                elif k >= 0:
                     ks.append(k)
                     rs.append(math.hypot(p[0], p[1]))
                     best[k] = min(best[k], rs[-1])
@@ -139,11 +145,23 @@ def reference_merge(out, sources, scans, t_out, odom=None, output_T_robot=None):
     return merged, points, nan_mark
 
 
+def inside(polygon, x, y):
+    """Even-odd rule: a horizontal ray from (x, y) crosses the outline an odd number of times."""
+    crossings = 0
+    for (xi, yi), (xj, yj) in zip(polygon, polygon[-1:] + polygon[:-1]):
+        if (yi > y) != (yj > y) and x < xj + (y - yj) * (xi - xj) / (yi - yj):
+            crossings += 1
+    return crossings % 2 == 1
+
+
 def apply_output_limits(out, merged):
     res = merged.copy()
     rmax = out.get('range_max', 30.0)
     no_return = math.inf if out.get('use_inf', True) else rmax + out.get('inf_epsilon', 1.0)
+    finite = out.get('finite_only', False)
     with np.errstate(invalid='ignore'):
         res = np.where(res > rmax, no_return, res)
-        res = np.where(res < out.get('range_min', 0.0), -np.inf, res)
+        res = np.where(res < out.get('range_min', 0.0), 0.0 if finite else -np.inf, res)
+        if finite:
+            res = np.where(np.isnan(res), 0.0, res)
     return res

@@ -164,6 +164,28 @@ TEST(Parameters, BadConfigsNameTheParameter)
   p.sources.clear();
   EXPECT_EQ(param_of(p), "sources");
 
+  p = oneSource();
+  p.output.footprint = { { { 0.0, 0.0 } }, { { 1.0, 0.0 } } };
+  EXPECT_EQ(param_of(p), "footprint");
+  p.output.footprint.push_back({ { 0.0, kNaNF } });
+  EXPECT_EQ(param_of(p), "footprint");
+
+  p = oneSource();
+  p.output.finite_only = true;  // use_inf is true
+  EXPECT_EQ(param_of(p), "finite_only");
+  p.output.use_inf = false;  // range_min is 0: 0 would not be below it
+  EXPECT_EQ(param_of(p), "range_min");
+  p.output.range_min = 0.05;
+  EXPECT_EQ(param_of(p), "none");
+
+  p = oneSource();
+  p.output.frame = "/base_link";
+  EXPECT_EQ(param_of(p), "output_frame");
+
+  p = oneSource();
+  p.publish_rate = 1e-9;  // a period of 1e9 s does not fit a ros::Duration
+  EXPECT_EQ(param_of(p), "publish_rate");
+
   // A wrap-around field of view (min > max) is valid.
   p = oneSource();
   p.sources[0].angle_min = 2.5;
@@ -335,15 +357,212 @@ TEST(FieldOfView, SourceRangeLimits)
   MergerCore core(p);
   Scan s{ std::vector<float>(360, 2.0f), {} };
   s.ranges[0] = 0.3f;    // below the source's range_min: invalid, marked NaN
-  s.ranges[1] = 5.0f;    // beyond range_max: no return
+  s.ranges[1] = 5.0f;    // beyond the source's range_max, within the message's 30 m: a real return
+                         // past the trusted range, no proof of free space: invalid
   s.ranges[2] = -kInfF;  // too close, inside the tightened limit: ignored like the body
+  s.ranges[3] = 65.5f;   // beyond the message's own range_max: the driver's "no return"
   MergedScan out;
   std::vector<SourceStatus> st;
   core.merge({ input(s.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
   EXPECT_TRUE(std::isnan(out.ranges[0]));
-  EXPECT_EQ(out.ranges[4], kInfF);
+  EXPECT_TRUE(std::isnan(out.ranges[4]));
   EXPECT_TRUE(std::isnan(out.ranges[8]));
-  EXPECT_NEAR(out.ranges[12], 2.0f, 1e-5);
+  EXPECT_EQ(out.ranges[12], kInfF);
+  EXPECT_NEAR(out.ranges[16], 2.0f, 1e-5);
+}
+
+// Driver error codes (finite, below the message's range_min, like the Hokuyo's 0.006-0.019 m
+// with range_min 0.02) are not measurements: never an obstacle, never hiding a real range.
+TEST(Readings, OutOfRangeFiniteValuesAreNeverObstacles)
+{
+  MergerParams p = oneSource();
+  p.sources.push_back(source("b"));
+  MergerCore core(p);
+  Scan a{ std::vector<float>(360, kInfF), {} };
+  Scan b{ std::vector<float>(360, kInfF), {} };
+  for (std::size_t i = 0; i < 20; ++i)
+    a.ranges[i] = 0.006f + 0.0007f * static_cast<float>(i);  // 0.006 .. 0.019 m
+  a.ranges[30] = 0.0f;    // "no echo" as 0 (SICK style)
+  a.ranges[40] = 99.0f;   // beyond range_max (30 m)
+  b.ranges[40] = 4.0f;    // a real return in the same direction
+  b.ranges[10] = 2.0f;
+  ScanView va = a.view();
+  va.range_min = 0.02;
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ input(va), input(b.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  for (std::size_t k = 0; k < out.ranges.size(); ++k)
+  {
+    if (k == 40 || k == 160)
+      continue;
+    EXPECT_FALSE(std::isfinite(out.ranges[k]) && out.ranges[k] != kInfF) << "bin " << k << ": " << out.ranges[k];
+  }
+  EXPECT_NEAR(out.ranges[40], 2.0f, 1e-5);   // b's return wins over a's error code in bin 40
+  EXPECT_NEAR(out.ranges[160], 4.0f, 1e-5);  // and over a's 99 m (no return) in bin 160
+  EXPECT_TRUE(std::isnan(out.ranges[0]));    // an error code alone: invalid, not free
+  EXPECT_TRUE(std::isnan(out.ranges[120]));
+}
+
+TEST(Readings, TooCloseIsObstacleSwitch)
+{
+  Scan a{ std::vector<float>(360, kInfF), {} };
+  a.ranges[10] = -kInfF;
+  for (bool obstacle : { true, false })
+  {
+    MergerParams p = oneSource();
+    p.sources[0].too_close_is_obstacle = obstacle;
+    MergerCore core(p);
+    MergedScan out;
+    std::vector<SourceStatus> st;
+    core.merge({ input(a.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+    if (obstacle)
+      EXPECT_NEAR(out.ranges[40], 0.05f, 1e-6);  // at the message's range_min
+    else
+      EXPECT_TRUE(std::isnan(out.ranges[40]));  // invalid: no obstacle, no free space
+  }
+}
+
+// ---------------------------------------------------------------- input checks
+
+TEST(InputChecks, StampsFarFromTheClockAreMalformed)
+{
+  const std::int64_t now = 1796013955LL * 1000000000LL + 944403171LL;
+  EXPECT_EQ(stampFault(1796013955u, 944403171u, now), nullptr);
+  EXPECT_EQ(stampFault(0u, 0u, now), nullptr);  // a bag's stamps years in the past
+  EXPECT_NE(stampFault(4294967295u, 999999999u, now), nullptr);  // the crash of issue 8
+  EXPECT_NE(std::string(stampFault(4294967295u, 0u, now)).find("ahead"), std::string::npos);
+  EXPECT_NE(stampFault(1796013955u, 1000000000u, now), nullptr);  // nsecs not normalised
+  // Sim time before the first /clock (now = 0): every stamp up to 2^31 - 1 s is usable.
+  EXPECT_EQ(stampFault(2147483647u, 999999999u, 0), nullptr);
+  EXPECT_NE(stampFault(2147483648u, 1u, 0), nullptr);
+  EXPECT_NE(std::string(stampFault(0u, 0u, 4294967295LL * 1000000000LL)).find("behind"), std::string::npos);
+}
+
+TEST(InputChecks, FrameIdsForTf2)
+{
+  bool stripped = true;
+  EXPECT_EQ(tf2FrameId("laser", stripped), "laser");
+  EXPECT_FALSE(stripped);
+  EXPECT_EQ(tf2FrameId("/laser", stripped), "laser");
+  EXPECT_TRUE(stripped);
+  EXPECT_EQ(tf2FrameId("/", stripped), "");  // empty: malformed
+  EXPECT_EQ(tf2FrameId("", stripped), "");
+  EXPECT_FALSE(stripped);
+}
+
+TEST(InputChecks, TimeIncrementSpanningMinutesIsMalformed)
+{
+  Scan s{ std::vector<float>(360, 1.0f), {} };
+  ScanView v = s.view();
+  v.time_increment = 1.0;  // 360 s for one scan
+  EXPECT_NE(scanFault(v), nullptr);
+  v.time_increment = -1e-4;  // a lidar spinning the other way: fine
+  EXPECT_EQ(scanFault(v), nullptr);
+}
+
+// ---------------------------------------------------------------- footprint
+
+TEST(Footprint, InsidePolygon)
+{
+  const std::vector<std::array<double, 2>> rect = { { { -0.4, -0.3 } }, { { 0.4, -0.3 } }, { { 0.4, 0.3 } },
+                                                    { { -0.4, 0.3 } } };
+  EXPECT_TRUE(insidePolygon(rect, 0.0, 0.0));
+  EXPECT_TRUE(insidePolygon(rect, 0.39, -0.29));
+  EXPECT_FALSE(insidePolygon(rect, 0.41, 0.0));
+  EXPECT_FALSE(insidePolygon(rect, 0.0, -0.31));
+  // A concave "U" (clockwise): the notch between the arms is outside.
+  const std::vector<std::array<double, 2>> u = { { { 0, 0 } }, { { 0, 3 } }, { { 1, 3 } }, { { 1, 1 } },
+                                                 { { 2, 1 } }, { { 2, 3 } }, { { 3, 3 } }, { { 3, 0 } } };
+  EXPECT_TRUE(insidePolygon(u, 0.5, 2.5));
+  EXPECT_TRUE(insidePolygon(u, 2.5, 2.5));
+  EXPECT_FALSE(insidePolygon(u, 1.5, 2.0));
+  EXPECT_TRUE(insidePolygon(u, 1.5, 0.5));
+}
+
+TEST(Footprint, ReturnsOnTheRobotAreDroppedOthersKept)
+{
+  MergerParams p = oneSource();
+  p.sources.push_back(source("b"));
+  p.sources[1].footprint_filter = false;
+  p.output.footprint = { { { -0.4, -0.3 } }, { { 0.4, -0.3 } }, { { 0.4, 0.3 } }, { { -0.4, 0.3 } } };
+  MergerCore core(p);
+  // Both sensors at (0.3, 0), looking forward; beam 180 of 360 points backwards (angle 0 is
+  // beam 180; angle pi is beam 0).
+  const Eigen::Isometry3d mount = pose(0.3, 0.0, 0.0, 0.0, 0.0, 0.0);
+  Scan a{ std::vector<float>(360, kInfF), {} };
+  a.ranges[0] = 0.2f;     // backwards 0.2 m: (0.1, 0), on the robot: dropped
+  a.ranges[90] = 0.25f;   // to the right (-pi/2) 0.25 m: (0.3, -0.25), on the robot
+  a.ranges[100] = 1.0f;   // (0.3 + cos(-80 deg), sin(-80 deg)): outside, kept
+  a.ranges[190] = 0.2f;   // forwards, 10 degrees left: (0.497, 0.035), outside the footprint, kept
+  a.ranges[270] = -kInfF; // too close to the left: at (0.3, 0.05), on the robot: dropped
+  Scan b{ std::vector<float>(360, kInfF), {} };
+  b.ranges[90] = 0.25f;   // the same point, but b opted out of the filter
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ input(a.view(), mount) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  auto bin = [&](double x, double y) {
+    return static_cast<std::size_t>(std::lround((std::atan2(y, x) + kPi) / p.output.angle_increment));
+  };
+  EXPECT_TRUE(std::isnan(out.ranges[bin(0.1, 0.0)]));
+  EXPECT_TRUE(std::isnan(out.ranges[bin(0.3, -0.25)]));
+  EXPECT_TRUE(std::isnan(out.ranges[bin(0.3, 0.05)]));
+  const double x100 = 0.3 + std::cos(-80.0 * kPi / 180.0), y100 = std::sin(-80.0 * kPi / 180.0);
+  EXPECT_NEAR(out.ranges[bin(x100, y100)], std::hypot(x100, y100), 1e-4);
+  const double x190 = 0.3 + 0.2 * std::cos(10.0 * kPi / 180.0), y190 = 0.2 * std::sin(10.0 * kPi / 180.0);
+  EXPECT_NEAR(out.ranges[bin(x190, y190)], std::hypot(x190, y190), 1e-4);
+  for (float r : out.ranges)
+    EXPECT_FALSE(std::isfinite(r) && r < 0.45f);  // nothing on the robot
+
+  core.merge({ input(a.view(), mount), input(b.view(), mount) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out,
+             st);
+  EXPECT_NEAR(out.ranges[bin(0.3, -0.25)], std::hypot(0.3, 0.25), 1e-4);  // b's point kept
+
+  MergerParams bad = oneSource();
+  bad.output.footprint = { { { 0.0, 0.0 } }, { { 1.0, 0.0 } } };
+  EXPECT_THROW(bad.validate(), ParameterError);
+}
+
+// ---------------------------------------------------------------- output modes
+
+// What each output option writes for no return, too close and invalid.
+TEST(OutputModes, NonFiniteValuesPerOption)
+{
+  Scan a{ std::vector<float>(360, kInfF), {} };  // bin 0 (-pi): no return
+  a.ranges[10] = 0.2f;                           // bin 40: below the output's range_min 0.5: too close
+  a.ranges[20] = kNaNF;                          // bin 80: invalid
+  a.ranges[30] = 2.0f;                           // bin 120: a real range
+  struct Mode
+  {
+    bool use_inf, finite_only;
+    float no_return, too_close, invalid;  // NaN stands for "is NaN"
+  };
+  const Mode modes[] = { { true, false, kInfF, -kInfF, kNaNF },
+                         { false, false, 3.5f, -kInfF, kNaNF },
+                         { false, true, 3.5f, 0.0f, 0.0f } };
+  for (const Mode& m : modes)
+  {
+    MergerParams p = oneSource();
+    p.output.range_min = 0.5;
+    p.output.range_max = 2.5;
+    p.output.use_inf = m.use_inf;
+    p.output.finite_only = m.finite_only;
+    MergerCore core(p);
+    MergedScan out;
+    std::vector<SourceStatus> st;
+    core.merge({ input(a.view()) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+    SCOPED_TRACE(std::string("use_inf ") + (m.use_inf ? "true" : "false") + ", finite_only " +
+                 (m.finite_only ? "true" : "false"));
+    EXPECT_EQ(out.ranges[0], m.no_return);
+    EXPECT_EQ(out.ranges[40], m.too_close);
+    if (std::isnan(m.invalid))
+      EXPECT_TRUE(std::isnan(out.ranges[80]));
+    else
+      EXPECT_EQ(out.ranges[80], m.invalid);
+    EXPECT_NEAR(out.ranges[120], 2.0f, 1e-5);
+    if (m.finite_only)
+      for (float r : out.ranges)
+        EXPECT_TRUE(std::isfinite(r) && (r < 0.5f || r > 2.5f || (r >= 0.5f && r <= 2.5f)));
+  }
 }
 
 // ---------------------------------------------------------------- geometry

@@ -45,6 +45,7 @@ def random_case(rng):
         ranges[(special >= 0.03) & (special < 0.08)] = np.inf
         ranges[(special >= 0.08) & (special < 0.09)] = -np.inf
         ranges[(special >= 0.09) & (special < 0.10)] = 0.01  # below the message's range_min
+        ranges[(special >= 0.10) & (special < 0.11)] = 25.0  # beyond the message's range_max: no return
         src = dict(name='s%d' % s, topic='t%d' % s, timeout=1.0, deskew=bool(rng.integers(2)))
         kind = rng.integers(3)
         if kind == 1:
@@ -59,7 +60,13 @@ def random_case(rng):
         scans.append(dict(stamp=t_out - rng.uniform(0.0, 0.3), angle_min=amin, angle_max=amin + (n - 1) * inc,
                           angle_increment=inc, time_increment=rng.uniform(0.0, 0.1) / n, range_min=0.05,
                           range_max=20.0, ranges=ranges, transform=mount))
+        src.update(too_close_is_obstacle=bool(rng.integers(4)), footprint_filter=bool(rng.integers(4)))
         sources.append(src)
+    if rng.integers(2):  # a robot outline (sometimes concave) around the mounts
+        w, h = rng.uniform(0.3, 0.7), rng.uniform(0.3, 0.6)
+        out['footprint'] = [[-w, -h], [w, -h], [w, h], [0.0, rng.uniform(0.0, h)], [-w, h]]
+    if rng.integers(3) == 0:
+        out.update(use_inf=False, finite_only=bool(rng.integers(2)), range_min=0.1)
     # Odometry: constant speed and turn rate from a random pose, 50 Hz, over the last 1.5 s.
     v, w = rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5)
     x0, y0, th0 = rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-math.pi, math.pi)

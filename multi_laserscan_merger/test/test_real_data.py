@@ -31,63 +31,117 @@ MOUNTS = {
 }
 
 
-def scan_dict(msg):
+# A footprint of that robot (output frame base_link, m): the lasers' centres sit on the long axis at
+# x = +0.236 and -0.238, on the front and rear edges; a URG-class laser's housing is 50 mm wide, so
+# the outline ends about 0.04 m past each centre (+-0.28 m). The mounts give no width: 0.40 m, a
+# small indoor base; the nearest real return beside the robot is more than 0.5 m away.
+FOOTPRINT = [[0.28, 0.2], [-0.28, 0.2], [-0.28, -0.2], [0.28, -0.2]]
+
+
+def scan_dict(msg, range_min=None):
     return dict(stamp=msg.header.stamp.to_sec(), angle_min=msg.angle_min, angle_max=msg.angle_max,
                 angle_increment=msg.angle_increment, time_increment=msg.time_increment,
-                range_min=msg.range_min, range_max=msg.range_max,
+                range_min=msg.range_min if range_min is None else range_min, range_max=msg.range_max,
                 ranges=np.asarray(msg.ranges, np.float32), transform=MOUNTS[msg.header.frame_id])
 
 
-def test_dual_lidar_bag_every_point_kept():
+def merged_points(out, merged):
+    """(x, y) of every finite merged range, at its bin's direction."""
+    k = np.nonzero(np.isfinite(merged))[0]
+    a = out['angle_min'] + k * out['angle_increment']
+    return merged[k] * np.cos(a), merged[k] * np.sin(a)
+
+
+def merge_bag(out, trust_error_codes=False, every=3):
+    """Merges the bag as publish_rate 0 does (every `every`-th output), checking each merge: every
+    valid input point (outside the footprint, if any) is in the merged scan within one bin and
+    1 cm or hidden by a closer point, and every merged range is an input point. Yields nothing;
+    returns counters and the merged scans. trust_error_codes: the messages' range_min is replaced
+    by 0, as if the driver's 0.006-0.019 m error codes were real readings."""
     rosbag = pytest.importorskip('rosbag')
     path = os.path.join(DATA, 'dual_lidar_scans_demo.bag')
     assert os.path.exists(path), path
     sources = [dict(name='front', topic='/front_scan'), dict(name='rear', topic='/rear_scan')]
-    merger = mlc.Merger(OUT, sources)
+    merger = mlc.Merger(out, sources)
     latest = [None, None]
-    merges = points_checked = hidden = hidden_same = 0
+    counts = dict(merges=0, points=0, hidden=0, hidden_same=0)
+    results = []
     with rosbag.Bag(path) as bag:
         for i, (topic, msg, _) in enumerate(bag.read_messages(topics=['/front_scan', '/rear_scan'])):
-            latest[0 if topic == '/front_scan' else 1] = scan_dict(msg)
-            if None in latest or i % 3:  # every third output keeps the test short
+            latest[0 if topic == '/front_scan' else 1] = scan_dict(msg, 0.0 if trust_error_codes else None)
+            if None in latest or i % every:
                 continue
             t_out = max(s['stamp'] for s in latest)  # publish_rate 0: the newest scan's stamp
             res = merger.merge(latest, t_out)
             assert res['status'] == ['used', 'used']
             merged = res['ranges'].astype(np.float64)
-            _, pts, _ = ref.reference_merge(OUT, sources, latest, t_out)
-            n = len(merged)
+            results.append(merged)
+            _, pts, _ = ref.reference_merge(out, sources, latest, t_out)
             for s, (bins, ranges) in enumerate(pts):
                 other_k, other_r = pts[1 - s]
                 for k, r in zip(bins, ranges):
                     near = [(k - 1) % 1440, k, (k + 1) % 1440]
                     found = [merged[j] for j in near if np.isfinite(merged[j])]
                     assert found and min(found) <= r + TOL, 'a point at bin %d, %.3f m is lost' % (k, r)
-                    points_checked += 1
+                    counts['points'] += 1
                     if any(abs(f - r) <= TOL for f in found):
                         continue
                     # Hidden: a closer point is there. Which source put it there?
                     d = np.abs(other_k - k)
                     d = np.minimum(d, 1440 - d)
                     if np.any((d <= 1) & (other_r < r - TOL)):
-                        hidden += 1
+                        counts['hidden'] += 1
                     else:
                         # By another beam of the same lidar: seen from the robot's centre, a closer
                         # obstacle hides a farther one that the offset lidar saw beside it (parallax).
-                        hidden_same += 1
+                        counts['hidden_same'] += 1
             all_k = np.concatenate([p[0] for p in pts])
             all_r = np.concatenate([p[1] for p in pts])
             for k in np.nonzero(np.isfinite(merged))[0]:
                 d = np.abs(all_k - k)
                 d = np.minimum(d, 1440 - d)
                 assert np.any((d <= 1) & (np.abs(all_r - merged[k]) <= TOL)), 'bin %d holds no input point' % k
-            assert n == 1441
-            merges += 1
+            assert len(merged) == 1441
+            counts['merges'] += 1
+    return counts, results
+
+
+def test_dual_lidar_bag_every_point_kept():
+    c, results = merge_bag(OUT)
     print('\ndual_lidar_scans_demo.bag: %d merges, %d valid input points: all kept or hidden; %d (%.1f%%) hidden '
           'by a closer point of the other lidar, %d (%.2f%%) by a closer point of the same lidar (parallax)'
-          % (merges, points_checked, hidden, 100.0 * hidden / max(points_checked, 1), hidden_same,
-             100.0 * hidden_same / max(points_checked, 1)))
-    assert merges > 100
+          % (c['merges'], c['points'], c['hidden'], 100.0 * c['hidden'] / max(c['points'], 1), c['hidden_same'],
+             100.0 * c['hidden_same'] / max(c['points'], 1)))
+    assert c['merges'] > 100
+    # The driver's error codes (0.006-0.019 m, below range_min 0.02) never become obstacles: the
+    # nearest real return of the bag is 0.54 m from base_link.
+    nearest = min(float(np.nanmin(np.where(np.isfinite(m), m, np.nan))) for m in results)
+    assert nearest > 0.5, nearest
+
+
+def test_dual_lidar_bag_footprint():
+    out = dict(OUT, footprint=FOOTPRINT)
+    c, results = merge_bag(out)
+    plain, _ = merge_bag(OUT)
+    # Every valid reading is outside this footprint: all of them are kept, as without it.
+    assert c['points'] == plain['points'] and c['merges'] == plain['merges'] > 100
+    for merged in results:
+        x, y = merged_points(out, merged)
+        assert not any(mlc.inside_polygon(FOOTPRINT, float(a), float(b)) for a, b in zip(x, y))
+
+    # Trusting the error codes (range_min 0) puts them on the lasers, inside the footprint: the
+    # filter drops them, and still keeps every reading outside (checked by merge_bag).
+    trusted = dict(OUT, range_min=0.0)
+    _, unfiltered = merge_bag(trusted, trust_error_codes=True, every=9)
+    inside = sum(sum(mlc.inside_polygon(FOOTPRINT, float(a), float(b)) for a, b in zip(*merged_points(OUT, m)))
+                 for m in unfiltered)
+    assert inside > 100, 'the error codes must lie on the robot for this test to mean anything'
+    c, filtered = merge_bag(dict(trusted, footprint=FOOTPRINT), trust_error_codes=True, every=9)
+    for merged in filtered:
+        x, y = merged_points(out, merged)
+        assert not any(mlc.inside_polygon(FOOTPRINT, float(a), float(b)) for a, b in zip(x, y))
+    print('\nfootprint: %d returns on the robot without it (error codes trusted), none with it; %d valid points '
+          'outside kept' % (inside, c['points']))
 
 
 def read_carmen(path):

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <string>
@@ -32,9 +33,28 @@ struct ScanView
   std::size_t n_intensities = 0;
 };
 
+/// A scan whose beams span more than this (|time_increment| * beams, s) is malformed.
+constexpr double kMaxScanDuration = 60.0;
+
 /// nullptr when the scan is usable, otherwise a static description of the fault
 /// (no allocation: also called on the hot path).
 const char* scanFault(const ScanView& scan);
+
+/// Largest distance (ns) between a message stamp and the node's clock: the largest ros::Duration
+/// (2^31 s - 1 ns). A stamp farther away makes every `stamp - now` (in the merger, in tf2, in
+/// consumers) throw "Duration is out of dual 32-bit range".
+constexpr std::int64_t kMaxClockOffsetNs = 2147483647LL * 1000000000LL + 999999999LL;
+
+/// nullptr when a message stamp (ROS's sec and nsec) is usable against the clock now_ns (integer
+/// nanoseconds), otherwise a static description of the fault.
+const char* stampFault(std::uint32_t sec, std::uint32_t nsec, std::int64_t now_ns);
+
+/// A frame id as tf2 wants it: without the leading '/' of tf1-era drivers and bags ("/laser"
+/// -> "laser"). `stripped` tells whether a slash was removed. An empty result is malformed.
+std::string tf2FrameId(const std::string& frame_id, bool& stripped);
+
+/// True when the point (x, y) lies inside the polygon (crossing number; any simple polygon).
+bool insidePolygon(const std::vector<std::array<double, 2>>& polygon, double x, double y);
 
 /// Beams implied by the angles (fencepost rule); 0 when the angles are unusable.
 std::size_t expectedBeamCount(const ScanView& scan);
@@ -127,10 +147,11 @@ private:
   std::size_t n_out_;
   std::size_t n_circle_;  ///< beams per full turn when the increment divides 2*pi, else 0
   float out_angle_min_, out_inv_increment_;
+  double footprint_radius_ = 0.0;  ///< no vertex is farther from the origin: points beyond are outside
   std::vector<SourceCache> caches_;
   std::vector<Eigen::Matrix<float, 2, 3>> group_transforms_;
   std::vector<int> bin_buffer_;
-  std::vector<float> range_buffer_;
+  std::vector<float> range_buffer_, x_buffer_, y_buffer_;
   std::vector<float> bins_, ibins_;  ///< fusion buffers: n_out bins + scratch bins (see beam_kernel.hpp)
 };
 

@@ -33,6 +33,9 @@ public:
   static constexpr double kTransformWait = 0.2;
   /// Odometry older than this (s) relative to the output time is reported as stopped.
   static constexpr double kOdometryStale = 0.5;
+  /// Name of the merged scan's topic (in the node's namespace; remap it). Not "scan": that is
+  /// the usual topic of a lidar driver, which a remap of the output would rewire to itself.
+  static constexpr const char* kOutputTopic = "merged_scan";
 
 private:
   struct SourceState
@@ -40,26 +43,34 @@ private:
     sensor_msgs::LaserScan::ConstPtr scan;  ///< latest accepted scan
     Eigen::Isometry3d output_T_sensor = Eigen::Isometry3d::Identity();
     sensor_msgs::LaserScan::ConstPtr pending;  ///< waiting for its transform
+    std::string pending_frame;                 ///< its frame id as tf2 wants it
     ros::WallTime pending_since;
     std::string pending_error;
+    bool slash_reported = false;  ///< a leading '/' in frame_id was reported (once per source)
     // Diagnostics.
     std::size_t received = 0, received_at_last_report = 0;
     std::size_t timeouts = 0, transform_failures = 0, malformed = 0;
+    std::size_t dropped = 0, dropped_at_last_report = 0;  ///< malformed + transform failures
+    std::string last_drop;                                ///< why the last scan was dropped
     double last_timed_out_stamp = -1.0;
     ros::Subscriber sub;
   };
 
   void scanCallback(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg);
+  void handleScan(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg);
   void odomCallback(const nav_msgs::Odometry::ConstPtr& msg);
+  void handleOdometry(const nav_msgs::Odometry::ConstPtr& msg);
   void timerCallback(const ros::TimerEvent&);
 
   // All below run with mutex_ held.
   void checkTimeJump();
   void clearAll(const std::string& why);
-  bool tryTransform(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg, std::string& error);
+  bool tryTransform(std::size_t source, const std::string& frame, const ros::Time& stamp, std::string& error);
   void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg);
+  void drop(std::size_t source, std::string why);
   void retryPending();
-  void mergeAndPublish(double t_out);
+  /// t_out is the stamp of a scan or an odometry message: published bit for bit.
+  void mergeAndPublish(const ros::Time& t_out);
   bool robotToOutput(Eigen::Isometry3d& out);
 
   void sourceDiagnostics(std::size_t source, diagnostic_updater::DiagnosticStatusWrapper& stat);
@@ -76,13 +87,16 @@ private:
   std::vector<SourceState> sources_;
   OdometryBuffer odom_;
   std::string odom_child_frame_;
+  ros::Time odom_newest_;  ///< stamp of the newest entry of odom_ (zero when empty)
   ros::WallTime last_odom_arrival_;
-  std::size_t odom_received_ = 0;
+  std::size_t odom_received_ = 0, odom_rejected_ = 0;
+  std::string odom_last_rejection_;
+  bool odom_slash_reported_ = false;
 
   std::vector<SourceInput> inputs_;  ///< reused across merges
   std::vector<SourceStatus> status_;
   MergedScan merged_;
-  double last_published_ = -1.0;
+  ros::Time last_published_;  ///< zero: nothing published on this timeline yet
   ros::Time last_now_;
   ros::WallTime last_report_;
 

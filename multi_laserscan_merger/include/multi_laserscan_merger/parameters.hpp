@@ -3,6 +3,7 @@
 // ROS-free (plain C++17): the ROS glue only fills these structs.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -41,6 +42,12 @@ struct OutputParams
   double range_max = 30.0;               ///< m (finite: consumers use it to clear along no-return beams)
   bool use_inf = true;                   ///< false: "no return" = range_max + inf_epsilon
   double inf_epsilon = 1.0;              ///< m
+  /// true (needs use_inf false and range_min > 0): every output range is finite; invalid and
+  /// too-close bins are written as 0, below range_min, which LaserScan consumers discard.
+  bool finite_only = false;
+  /// Robot outline in the output frame (m), >= 3 points or empty (no filter): returns whose
+  /// point lies inside are the robot itself and are dropped (their direction becomes invalid).
+  std::vector<std::array<double, 2>> footprint;
 
   /// Number of beams by the fencepost rule: round((max - min) / increment) + 1.
   std::size_t beamCount() const;
@@ -62,12 +69,19 @@ struct SourceParams
   double range_min = 0.0;   ///< m; only tightens the message's own range_min
   double range_max = kInf;  ///< m; only tightens the message's own range_max
   bool deskew = false;      ///< move every beam from its own time (time_increment)
+  /// -Inf ("too close", REP 117) is an obstacle at the sensor's range_min (true) or an
+  /// invalid reading (false).
+  bool too_close_is_obstacle = true;
+  bool footprint_filter = true;  ///< false: the output footprint does not apply to this source
 
   /// Throws ParameterError; `prefix` is e.g. "sources[1]".
   void validate(const std::string& prefix) const;
   /// True when the sensor-frame angle (any value, wrapped internally) is inside the mask.
   bool inFieldOfView(double angle) const;
 };
+
+/// Smallest publish_rate (Hz) other than 0: its period must fit a ros::Duration (2^31 s).
+constexpr double kMinPublishRate = 1e-6;
 
 /// Everything the merger needs.
 struct MergerParams
