@@ -52,7 +52,7 @@ def publisher(count_file):
     pubs = {s[0]: rospy.Publisher(s[0] + '/scan', LaserScan, queue_size=10) for s in SOURCES}
     odom_pub = rospy.Publisher('odom', Odometry, queue_size=10)
     count = [0]
-    rospy.Subscriber('scan', LaserScan, lambda m: count.__setitem__(0, count[0] + 1), queue_size=100)
+    rospy.Subscriber('merged_scan', LaserScan, lambda m: count.__setitem__(0, count[0] + 1), queue_size=100)
     rng = np.random.default_rng(0)
 
     def scan(src):

@@ -50,9 +50,9 @@ def set_params(env, ns, yaml_text):
     subprocess.run(['rosparam', 'load', path, '/' + ns], env=env, check=True)
 
 
-def run_node(env, name, wait):
+def run_node(env, name, wait, args=()):
     """Starts the node; returns (exit code or None if still running after `wait` s, output)."""
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name],
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name] + list(args),
                          env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         out, _ = p.communicate(timeout=wait)
@@ -80,6 +80,14 @@ def test_shipped_config_starts(ros_env):
     ('range_max: far\nsources: [%s]' % GOOD_SOURCE, 'range_max'),
     ('odom_queue_size: 1\nsources: [%s]' % GOOD_SOURCE, 'odom_queue_size'),
     ('output_frame: base_link', 'sources'),
+    ('footprint: [[0.3, 0.2], [-0.3, 0.2]]\nsources: [%s]' % GOOD_SOURCE, 'footprint'),
+    ('footprint: [[0.3, 0.2], [-0.3, 0.2], [0.0]]\nsources: [%s]' % GOOD_SOURCE, 'footprint'),
+    ('footprint: [[0.3, 0.2], [-0.3, 0.2], [0.0, .nan]]\nsources: [%s]' % GOOD_SOURCE, 'footprint'),
+    ('finite_only: true\nsources: [%s]' % GOOD_SOURCE, 'finite_only'),
+    ('use_inf: false\nfinite_only: true\nsources: [%s]' % GOOD_SOURCE, 'range_min'),
+    ('output_frame: /base_link\nsources: [%s]' % GOOD_SOURCE, 'output_frame'),
+    ('sources: [{name: a, topic: x, too_close_is_obstacle: "yes"}]', 'sources[0].too_close_is_obstacle'),
+    ('sources: [%s, {name: b, topic: merged_scan}]' % GOOD_SOURCE, 'sources[1].topic'),
 ])
 def test_bad_config_stops_node_naming_parameter(ros_env, yaml_text, parameter):
     ns = 'bad_%d' % (abs(hash(yaml_text)) % 100000)
@@ -87,6 +95,17 @@ def test_bad_config_stops_node_naming_parameter(ros_env, yaml_text, parameter):
     code, out = run_node(ros_env, ns, 15.0)
     assert code is not None and code != 0, out
     assert 'FATAL' in out and "parameter '%s'" % parameter in out, out
+
+
+def test_source_on_the_remapped_output_topic_is_refused(ros_env):
+    # A lidar driver on /scan, and the output remapped to /scan as well: the merger would read itself.
+    set_params(ros_env, 'merger_clash', 'sources: [{name: front, topic: front/scan}, {name: lidar, topic: /scan}]')
+    code, out = run_node(ros_env, 'merger_clash', 15.0, ['merged_scan:=/scan'])
+    assert code is not None and code != 0, out
+    assert "parameter 'sources[1].topic'" in out and "source 'lidar' resolves to '/scan'" in out, out
+    # Without the remap the same sources are fine.
+    code, out = run_node(ros_env, 'merger_clash', 4.0)
+    assert code is None and "on '/merged_scan'" in out, out
 
 
 def test_bad_config_nodelet_fatal(ros_env):
@@ -145,7 +164,7 @@ clock = rospy.Publisher('/clock', Clock, queue_size=10)
 odom = rospy.Publisher('/j/odom', Odometry, queue_size=10)
 scan = rospy.Publisher('/j/scan', LaserScan, queue_size=10)
 after = [0]
-rospy.Subscriber('/scan', LaserScan, lambda m: after.__setitem__(0, after[0] + (m.header.stamp.to_sec() < 90)))
+rospy.Subscriber('/merged_scan', LaserScan, lambda m: after.__setitem__(0, after[0] + (m.header.stamp.to_sec() < 90)))
 import time
 time.sleep(1.5)
 def run(t0, seconds, with_odom):

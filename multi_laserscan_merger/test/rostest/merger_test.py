@@ -4,8 +4,10 @@
 Plays the paper's robot standing in a round room (radius 3 m around base_link): two 360-beam
 lidars at 8 Hz, two 328-beam camera scans at 14 Hz, odometry at 50 Hz, static tf. Checks
 that the merged scan comes for every input (~mode every) or at the set rate (~mode rate),
-that it shows the room, and that when one source stops the output goes on without it and
-/diagnostics says so, and recovers when it comes back."""
+that it shows the room and carries an input's stamp bit for bit, that when one source stops the
+output goes on without it and /diagnostics says so, and recovers when it comes back, and that
+malformed scans and odometry (stamps 2^32 s ahead, nsecs not normalised, empty frame ids, NaN or
+zero quaternions) are dropped, counted and named while valid input keeps being merged (issue 8)."""
 import math
 import threading
 import unittest
@@ -44,7 +46,10 @@ class MergerTest(unittest.TestCase):
         cls.rate = rospy.get_param('~expected_rate', 5.0)
         cls.lock = threading.Lock()
         cls.published = {s[0]: [] for s in SOURCES}
+        cls.exact = set()  # (secs, nsecs) of every scan and odometry message published
         cls.odom_stamps = []
+        cls.odom_stopped = False
+        cls.frame_override = {}
         cls.outputs = []  # (stamp, message)
         cls.arrivals = []  # receive time of each output
         cls.diagnostics = {}
@@ -60,7 +65,8 @@ class MergerTest(unittest.TestCase):
             t.transform.rotation.z, t.transform.rotation.w = math.sin(yaw / 2), math.cos(yaw / 2)
             transforms.append(t)
         cls.static.sendTransform(transforms)
-        rospy.Subscriber('scan', LaserScan, cls.on_output, queue_size=100)
+        rospy.Subscriber('merged_scan', LaserScan, cls.on_output, queue_size=100)
+        cls.exact_outputs = []  # (secs, nsecs)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=20)
         cls.odom_pub = rospy.Publisher('odom', Odometry, queue_size=10)
         cls.pubs = {}
@@ -77,13 +83,13 @@ class MergerTest(unittest.TestCase):
             t.shutdown()
 
     @classmethod
-    def publish_scan(cls, src):
-        name, frame, x, y, z, yaw, n, amin, inc, rate, deskew = src
-        if name in cls.stopped:
+    def publish_scan(cls, src, stamp=None, frame=None):
+        name, default_frame, x, y, z, yaw, n, amin, inc, rate, deskew = src
+        if stamp is None and name in cls.stopped:
             return
         m = LaserScan()
-        m.header.stamp = rospy.Time.now()
-        m.header.frame_id = frame
+        m.header.stamp = stamp if stamp is not None else rospy.Time.now()
+        m.header.frame_id = frame if frame is not None else cls.frame_override.get(name, default_frame)
         m.angle_min, m.angle_increment = amin, inc
         m.angle_max = amin + (n - 1) * inc
         m.time_increment = (1.0 / rate) / n if deskew else 0.0
@@ -92,24 +98,30 @@ class MergerTest(unittest.TestCase):
         m.ranges = room_ranges(x, y, yaw, amin, inc, n).tolist()
         with cls.lock:
             cls.published[name].append(m.header.stamp.to_sec())
+            cls.exact.add((m.header.stamp.secs, m.header.stamp.nsecs))
         cls.pubs[name].publish(m)
 
     @classmethod
-    def publish_odom(cls):
+    def publish_odom(cls, stamp=None, quaternion=None):
+        if stamp is None and cls.odom_stopped:
+            return
         m = Odometry()
-        m.header.stamp = rospy.Time.now()
+        m.header.stamp = stamp if stamp is not None else rospy.Time.now()
         m.header.frame_id = 'odom'
         m.child_frame_id = 'base_link'
         m.pose.pose.position.x, m.pose.pose.position.y = 1.0, 2.0  # standing still
-        m.pose.pose.orientation.z, m.pose.pose.orientation.w = math.sin(0.15), math.cos(0.15)
+        q = m.pose.pose.orientation
+        q.x, q.y, q.z, q.w = quaternion or (0.0, 0.0, math.sin(0.15), math.cos(0.15))
         with cls.lock:
             cls.odom_stamps.append(m.header.stamp.to_sec())
+            cls.exact.add((m.header.stamp.secs, m.header.stamp.nsecs))
         cls.odom_pub.publish(m)
 
     @classmethod
     def on_output(cls, m):
         with cls.lock:
             cls.outputs.append((m.header.stamp.to_sec(), m))
+            cls.exact_outputs.append((m.header.stamp.secs, m.header.stamp.nsecs))
             cls.arrivals.append(rospy.Time.now().to_sec())
 
     @classmethod
@@ -173,6 +185,11 @@ class MergerTest(unittest.TestCase):
             # Synchronised to data that exists (a scan or odometry stamp), never to now().
             known = set(inputs) | set(odom) | set(t for v in self.published.values() for t in v)
             self.assertTrue(all(t in known for t in stamps))
+        with self.lock:
+            # Bit for bit: (secs, nsecs) of a published scan (or odometry, with a rate), never
+            # rounded through double seconds.
+            wrong = [e for e in self.exact_outputs if e not in self.exact]
+        self.assertEqual(wrong, [], 'output stamps that are no input stamp')
         m = outs[-1][1]
         self.assertEqual(m.header.frame_id, 'base_link')
         self.assertEqual(len(m.ranges), 1441)
@@ -219,6 +236,81 @@ class MergerTest(unittest.TestCase):
         with self.lock:
             odom = self.source_status('odometry') or [s for k, s in self.diagnostics.items() if k.endswith('odometry')][0]
         self.assertEqual(odom.level, DiagnosticStatus.OK)
+
+    def test_3_bad_input_is_dropped_and_named(self):
+        self.wait_for(lambda: len(self.outputs) > 5, 20.0, 'merged scans')
+        lidar = SOURCES[0]
+        not_normalised = rospy.Time()
+        not_normalised.secs, not_normalised.nsecs = rospy.Time.now().secs, 2000000000
+        before = self.source_status(lidar[0])
+        malformed_before = int({v.key: v.value for v in before.values}['malformed scans']) if before else 0
+        # Scans: stamps beyond any ros::Duration from the clock (the crash of issue 8), nsecs not
+        # normalised, an empty frame id. Odometry: the same stamp, NaN and zero quaternions.
+        for _ in range(3):
+            self.publish_scan(lidar, stamp=rospy.Time(4294967295, 999999999))
+            self.publish_scan(lidar, stamp=rospy.Time(4294967295, 0))
+            self.publish_scan(lidar, stamp=not_normalised)
+            self.publish_scan(lidar, frame='')
+            self.publish_odom(stamp=rospy.Time(4294967295, 999999999))
+            self.publish_odom(quaternion=(float('nan'), 0.0, 0.0, 1.0))
+            self.publish_odom(quaternion=(0.0, 0.0, 0.0, 0.0))
+            self.publish_odom(quaternion=(0.0, 0.0, 2 * math.sin(0.15), 2 * math.cos(0.15)))  # normalised, used
+            rospy.sleep(0.1)
+        # A tf1-era frame id ('/cam_front'): tf2 refuses it, the merger strips the slash.
+        with self.lock:
+            self.frame_override['camera_front'] = '/cam_front'
+        mark = rospy.Time.now().to_sec()
+        rospy.sleep(1.5)
+        with self.lock:
+            after = [m for t, m in self.outputs if t >= mark]
+        self.assertGreater(len(after), 3, 'the merger must keep merging valid input')
+        r = np.array(after[-1].ranges)
+        self.assertGreater(self.coverage(r), 0.95)
+        self.assertAlmostEqual(float(np.median(r[np.isfinite(r)])), ROOM, delta=0.02)
+
+        def counted():
+            s = self.source_status(lidar[0])
+            if s is None:
+                return False
+            v = {x.key: x.value for x in s.values}
+            return int(v['malformed scans']) >= malformed_before + 12
+        self.wait_for(counted, 5.0, 'the malformed scans counted in diagnostics')
+        with self.lock:
+            v = {x.key: x.value for x in self.source_status(lidar[0]).values}
+            camera = self.source_status('camera_front')
+            cv = {x.key: x.value for x in camera.values}
+            odom = [s for k, s in self.diagnostics.items() if k.endswith('odometry')][0]
+            ov = {x.key: x.value for x in odom.values}
+            self.frame_override.clear()
+        self.assertTrue(v['last drop reason'].startswith('malformed scan: '), v['last drop reason'])
+        self.assertGreaterEqual(int(ov['messages ignored']), 9)
+        self.assertNotEqual(ov['last ignored because'], 'none')
+        # The slashed camera frames were merged: no transform failure, no drop, not stale.
+        self.assertEqual(int(cv['transform failures']), 0)
+        self.assertEqual(int(cv['scans dropped']), 0)
+        self.assertLess(float(cv['age of last scan (s)']), 0.3)
+        self.assertEqual(camera.hardware_id, odom.hardware_id)
+        self.assertIn('merger', camera.hardware_id)
+
+    def test_4_output_stamp_is_the_input_stamp_bit_for_bit(self):
+        self.wait_for(lambda: len(self.outputs) > 5, 20.0, 'merged scans')
+        with self.lock:
+            self.stopped.update(s[0] for s in SOURCES)
+            MergerTest.odom_stopped = True  # a class attribute: the publishing timers read it
+        rospy.sleep(0.5)
+        # A stamp with nsecs 944403171 (issue 7: ...944403171 in, ...172 out), newer than every
+        # input so far, so that the output is synchronised to it.
+        while rospy.Time.now().nsecs < 950000000:
+            rospy.sleep(0.002)
+        stamp = rospy.Time(rospy.Time.now().secs, 944403171)
+        self.publish_scan(SOURCES[2], stamp=stamp)
+        try:
+            self.wait_for(lambda: (stamp.secs, stamp.nsecs) in self.exact_outputs, 5.0,
+                          'an output stamped %d.%09d' % (stamp.secs, stamp.nsecs))
+        finally:
+            with self.lock:
+                self.stopped.clear()
+                MergerTest.odom_stopped = False
 
 
 if __name__ == '__main__':
