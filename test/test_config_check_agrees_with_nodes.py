@@ -69,11 +69,19 @@ MERGER_OUTPUT_CHANGES = [
     ("angle_min", -3.1416), ("angle_min", math.nan),
     ("angle_max", -math.pi), ("angle_increment", 0.0), ("range_min", -1.0), ("range_min", 40.0),
     ("range_max", math.inf), ("inf_epsilon", -1.0),
+    ("output_frame", "/base_link"), ("finite_only", True),
+    ("footprint", [[0.3, 0.2], [-0.3, 0.2]]), ("footprint", [[0.3, 0.2], [-0.3, 0.2], [0.0, math.nan]]),
+    ("footprint", [[0.3, 0.2], [-0.3, 0.2], [0.0, -0.2]]), ("footprint", []),
+]
+# Several parameters changed together (finite_only's rules).
+MERGER_OUTPUT_COMBINATIONS = [
+    dict(use_inf=False, finite_only=True), dict(use_inf=False, finite_only=True, range_min=0.05),
+    dict(use_inf=True, finite_only=True, range_min=0.05),
 ]
 MERGER_SOURCE_CHANGES = [
     ("timeout", 0.0), ("timeout", -1.0), ("angle_min", 2.5), ("angle_min", 4.0),
     ("angle_max", -4.0), ("angle_max", 3.1416), ("angle_max", 3.14159), ("range_min", -0.5), ("range_min", 2.0), ("range_max", 0.0),
-    ("topic", ""), ("name", ""),
+    ("topic", ""), ("name", ""), ("too_close_is_obstacle", False), ("footprint_filter", False),
 ]
 
 
@@ -91,6 +99,23 @@ def test_merger_output_verdicts_agree(name, value):
     core_ok = merger_core_accepts({name: value}, [dict(SOURCE)])
     assert checker_ok == core_ok, "%s = %r: checker %s, merger core %s" % (
         name, value, "accepts" if checker_ok else "rejects", "accepts" if core_ok else "rejects")
+
+
+@pytest.mark.parametrize("rate", [0.0, 1e-9, 1e-6, 10.0, -1.0])
+def test_merger_publish_rate_verdicts_agree(rate):
+    checker_ok = not cc.check_merger({"publish_rate": rate, "sources": [dict(SOURCE)]})
+    try:
+        merger_core.Merger({}, [dict(SOURCE)], publish_rate=rate)
+        core_ok = True
+    except (ValueError, merger_core.ParameterError):
+        core_ok = False
+    assert checker_ok == core_ok, rate
+
+
+@pytest.mark.parametrize("output", MERGER_OUTPUT_COMBINATIONS)
+def test_merger_output_combinations_agree(output):
+    checker_ok = not cc.check_merger(dict(output, sources=[dict(SOURCE)]))
+    assert checker_ok == merger_core_accepts(output, [dict(SOURCE)]), output
 
 
 @pytest.mark.parametrize("name,value", MERGER_SOURCE_CHANGES)

@@ -177,15 +177,16 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
     .def("__len__", &OdometryBuffer::size);
 
   py::class_<MergerCore>(m, "Merger")
-    .def(py::init([](const py::dict& output, const py::list& sources, int odom_queue_size) {
+    .def(py::init([](const py::dict& output, const py::list& sources, int odom_queue_size, double publish_rate) {
            MergerParams p;
            p.output = outputFromDict(output);
            p.odom_queue_size = odom_queue_size;
+           p.publish_rate = publish_rate;
            for (const auto& s : sources)
              p.sources.push_back(sourceFromDict(s.cast<py::dict>()));
            return new MergerCore(p);
          }),
-         py::arg("output"), py::arg("sources"), py::arg("odom_queue_size") = 100)
+         py::arg("output"), py::arg("sources"), py::arg("odom_queue_size") = 100, py::arg("publish_rate") = 0.0)
     .def_property_readonly("beam_count", &MergerCore::beamCount)
     .def(
       "merge",

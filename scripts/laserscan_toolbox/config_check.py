@@ -72,6 +72,8 @@ MERGER = {
     "range_max": Key("float", 30.0, "m", lo=0.0, lo_open=True),
     "use_inf": Key("bool", True),
     "inf_epsilon": Key("float", 1.0, "m", lo=0.0),
+    "finite_only": Key("bool", False, doc="every range finite (needs use_inf false, range_min > 0)"),
+    "footprint": Key("polygon", [], "m", doc="robot outline in output_frame: returns inside are dropped"),
     "odom_topic": Key("str", "odom", doc="empty disables motion compensation"),
     # the merger reads it as a number that must be whole (100 and 100.0 both work)
     "odom_queue_size": Key("whole", 100, lo=1),
@@ -89,6 +91,8 @@ SOURCE = {
     "range_min": Key("float", 0.0, "m", lo=0.0),
     "range_max": Key("float", INF, "m", lo=0.0, lo_open=True),
     "deskew": Key("bool", False),
+    "too_close_is_obstacle": Key("bool", True, doc="-Inf is an obstacle at the sensor's range_min"),
+    "footprint_filter": Key("bool", True, doc="false: the merger's footprint does not apply"),
 }
 SOURCE_REQUIRED = ("name", "topic")
 # angle_min > angle_max is allowed for a source mask: it wraps around +-pi.
@@ -128,6 +132,8 @@ def check_value(path, key, value):
         if not isinstance(value, bool):
             return ["%s: expected true or false, got %s %r" % (path, _type_name(value), value)]
         return []
+    elif key.kind == "polygon":
+        return _check_polygon(path, value)
     else:
         if not isinstance(value, str):
             return ["%s: expected a string, got %s %r" % (path, _type_name(value), value)]
@@ -142,6 +148,21 @@ def check_value(path, key, value):
             return ["%s: must be >= %g%s, got %g" % (path, key.lo, unit, v)]
     if key.hi is not None and not v <= key.hi:
         return ["%s: must be <= %g%s, got %g" % (path, key.hi, unit, v)]
+    return []
+
+
+def _check_polygon(path, value):
+    """A list of [x, y] points: none (no polygon) or at least 3, every coordinate finite."""
+    if not isinstance(value, list):
+        return ["%s: expected a list of [x, y] points, got %s %r" % (path, _type_name(value), value)]
+    for i, p in enumerate(value):
+        if not (isinstance(p, list) and len(p) == 2 and all(_num(c) for c in p)):
+            return ["%s: point %d is not a pair of numbers [x, y]: %r" % (path, i, p)]
+        if not all(math.isfinite(c) for c in p):
+            return ["%s: point %d is not finite: %r" % (path, i, p)]
+    if 0 < len(value) < 3:
+        return ["%s: needs at least 3 [x, y] points (or none: no footprint filter), got %d"
+                % (path, len(value))]
     return []
 
 
@@ -187,9 +208,30 @@ def check_converter(params, prefix=""):
             + _check_one_turn(params, CONVERTER, prefix))
 
 
+def _check_merger_output(params, prefix):
+    """The merger's cross-field rules beyond min < max (same as OutputParams::validate)."""
+    problems = []
+    get = lambda k: params.get(k, MERGER[k].default)  # noqa: E731
+    frame = get("output_frame")
+    if isinstance(frame, str) and frame.startswith("/"):
+        problems.append("%s: must not start with '/' (tf2 frame ids have none)" % _join(prefix, "output_frame"))
+    if get("finite_only") is True:
+        if get("use_inf") is True:
+            problems.append("%s: needs use_inf: false (no return is then range_max + inf_epsilon)"
+                            % _join(prefix, "finite_only"))
+        elif _num(get("range_min")) and not float(get("range_min")) > 0.0:
+            problems.append("%s: must be > 0 when finite_only is true (invalid and too-close bins are "
+                            "written as 0, below range_min)" % _join(prefix, "range_min"))
+    rate = get("publish_rate")
+    if _num(rate) and 0.0 < float(rate) < 1e-6:
+        problems.append("%s: must be 0 or at least 1e-6 Hz" % _join(prefix, "publish_rate"))
+    return problems
+
+
 def check_merger(params, prefix=""):
     problems = _check_block(params, MERGER, MERGER_PAIRS, prefix)
     problems += _check_one_turn(params, MERGER, prefix)
+    problems += _check_merger_output(params, prefix)
     path = _join(prefix, "sources")
     sources = params.get("sources")
     if sources is None:
@@ -209,6 +251,9 @@ def check_merger(params, prefix=""):
             if k not in src:
                 problems.append("%s: missing (required)" % _join(sp, k))
         problems += _check_block(src, SOURCE, SOURCE_PAIRS, sp)
+        if src.get("topic") == "merged_scan":
+            problems.append("%s: 'merged_scan' is the merger's own output topic: the merger would read "
+                            "itself" % _join(sp, "topic"))
         name = src.get("name")
         if isinstance(name, str) and name:
             if name in names:
