@@ -226,12 +226,16 @@ void referenceLaserGeometryTf(const Scenario& sc, laser_geometry::LaserProjectio
   }
 }
 
-double g_core_ns = 0.0, g_core_deskew_ns = 0.0, g_ref_ns = 0.0, g_lg_ns = 0.0, g_lgtf_ns = 0.0;
+double g_core_ns = 0.0, g_core_deskew_ns = 0.0, g_core_footprint_ns = 0.0, g_ref_ns = 0.0, g_lg_ns = 0.0,
+       g_lgtf_ns = 0.0;
 
-// One merge of the paper's four scans; deskew moves every lidar beam from its own time.
-void runCoreMerge(benchmark::State& state, bool deskew)
+// One merge of the paper's four scans; deskew moves every lidar beam from its own time;
+// footprint drops the returns on the paper robot's 0.74 m x 0.48 m outline.
+void runCoreMerge(benchmark::State& state, bool deskew, bool footprint = false)
 {
   Scenario sc(deskew);
+  if (footprint)
+    sc.params.output.footprint = { { { 0.37, 0.24 } }, { { -0.37, 0.24 } }, { { -0.37, -0.24 } }, { { 0.37, -0.24 } } };
   MergerCore core(sc.params);
   const auto in = sc.inputs();
   MergedScan out;
@@ -252,6 +256,11 @@ void BM_CoreMerge(benchmark::State& state)
 void BM_CoreMergeDeskew(benchmark::State& state)
 {
   runCoreMerge(state, true);
+}
+
+void BM_CoreMergeFootprint(benchmark::State& state)
+{
+  runCoreMerge(state, false, true);
 }
 
 void BM_ReferenceSinCosAtan2(benchmark::State& state)
@@ -294,6 +303,7 @@ void BM_ReferenceLaserGeometryTf(benchmark::State& state)
 
 BENCHMARK(BM_CoreMerge)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_CoreMergeDeskew)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_CoreMergeFootprint)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ReferenceSinCosAtan2)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ReferenceLaserGeometry)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ReferenceLaserGeometryTf)->Unit(benchmark::kMicrosecond);
@@ -318,6 +328,8 @@ public:
         g_core_ns = ns;
       else if (name == "BM_CoreMergeDeskew")
         g_core_deskew_ns = ns;
+      else if (name == "BM_CoreMergeFootprint")
+        g_core_footprint_ns = ns;
       else if (name == "BM_ReferenceSinCosAtan2")
         g_ref_ns = ns;
       else if (name == "BM_ReferenceLaserGeometry")
@@ -385,6 +397,9 @@ int main(int argc, char** argv)
     std::printf("  core                         %8.2f us\n", g_core_ns / 1e3);
     if (g_core_deskew_ns > 0.0)
       std::printf("  core, lidars deskewed        %8.2f us\n", g_core_deskew_ns / 1e3);
+    if (g_core_footprint_ns > 0.0)
+      std::printf("  core, footprint filter       %8.2f us  (%.2fx the core without it)\n", g_core_footprint_ns / 1e3,
+                  g_core_footprint_ns / g_core_ns);
     std::printf("  reference sin/cos/atan2      %8.2f us  ratio reference/core %6.1fx\n", g_ref_ns / 1e3,
                 g_ref_ns / g_core_ns);
     std::printf("  reference laser_geometry+tf2 %8.2f us  ratio reference/core %6.1fx\n", g_lg_ns / 1e3,

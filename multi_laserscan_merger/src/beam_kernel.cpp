@@ -28,11 +28,13 @@ namespace
 // The loop, with or without the per-beam step of the transform (deskew), so that the usual
 // case does not pay for the interpolation.
 template <bool kStep, bool kAllInView, bool kPoints>
-inline __attribute__((always_inline)) void
-projectLoop(std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
-            const float* __restrict sg, const float* __restrict m, float rmin, float rmax, float rmax_msg,
-            int keep_close, float amin, float inv_inc, int wrap, unsigned n_out, int* __restrict kg,
-            float* __restrict og, float* __restrict xs, float* __restrict ys)
+inline __attribute__((always_inline)) void projectLoop(std::size_t len, const float* __restrict rg,
+                                                       const float* __restrict fg, const float* __restrict cg,
+                                                       const float* __restrict sg, const float* __restrict m,
+                                                       float rmin, float rmax, float rmax_msg, int keep_close,
+                                                       float amin, float inv_inc, int wrap, unsigned n_out,
+                                                       int* __restrict kg, float* __restrict og, float* __restrict xs,
+                                                       float* __restrict ys)
 {
   constexpr float kTwoPi = 6.28318530717958647692f;
   constexpr std::int32_t kInfBits = 0x7f800000;
@@ -92,14 +94,14 @@ projectLoop(std::size_t len, const float* __restrict rg, const float* __restrict
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void projectBeams(
   std::size_t len, const float* __restrict rg, const float* __restrict fg, const float* __restrict cg,
   const float* __restrict sg, const float* __restrict m, float rmin, float rmax, float rmax_msg, bool keep_too_close,
-  float amin, float inv_inc, int wrap, unsigned n_out, int* __restrict kg, float* __restrict og,
-  float* __restrict xs, float* __restrict ys)
+  float amin, float inv_inc, int wrap, unsigned n_out, int* __restrict kg, float* __restrict og, float* __restrict xs,
+  float* __restrict ys)
 {
   const int kc = keep_too_close ? 1 : 0;
   const bool step = m[6] != 0.0f || m[7] != 0.0f || m[8] != 0.0f || m[9] != 0.0f || m[10] != 0.0f || m[11] != 0.0f;
-#define MLM_PROJECT(kStep, kAll, kPoints)                                                                      \
-  projectLoop<kStep, kAll, kPoints>(len, rg, fg, cg, sg, m, rmin, rmax, rmax_msg, kc, amin, inv_inc, wrap, n_out, \
-                                    kg, og, xs, ys)
+#define MLM_PROJECT(kStep, kAll, kPoints)                                                                             \
+  projectLoop<kStep, kAll, kPoints>(len, rg, fg, cg, sg, m, rmin, rmax, rmax_msg, kc, amin, inv_inc, wrap, n_out, kg, \
+                                    og, xs, ys)
   if (xs != nullptr)  // footprint filter on: the rare case, one variant (mask table and steps as data)
     MLM_PROJECT(true, false, true);
   else if (fg == nullptr && step)

@@ -29,9 +29,9 @@ Eigen::Matrix<float, 2, 3> planarPart(const Eigen::Isometry3d& t)
 // range_max is no return (+Inf or range_max + inf_epsilon), below range_min is `too_close`
 // (-Inf, REP 117). Vectorised like projectBeams.
 // The fusion bins are reset to +Inf on the way, ready for the next merge.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void
-applyOutputLimits(float* __restrict in, float* __restrict r, std::size_t n, float rmin, float rmax, float no_return,
-                  float invalid, float too_close)
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void applyOutputLimits(
+  float* __restrict in, float* __restrict r, std::size_t n, float rmin, float rmax, float no_return, float invalid,
+  float too_close)
 {
   for (std::size_t k = 0; k < n; ++k)
   {

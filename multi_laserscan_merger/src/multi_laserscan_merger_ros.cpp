@@ -56,9 +56,16 @@ SourceParams readSource(XmlRpc::XmlRpcValue& item, const std::string& prefix)
   if (item.getType() != XmlRpc::XmlRpcValue::TypeStruct)
     throw ParameterError(prefix, "must be a dictionary {name, topic, timeout, angle_min, ...}");
   SourceParams s;
-  static const std::set<std::string> known = { "name",      "topic",     "timeout", "angle_min",
-                                               "angle_max", "range_min", "range_max", "deskew",
-                                               "too_close_is_obstacle", "footprint_filter" };
+  static const std::set<std::string> known = { "name",
+                                               "topic",
+                                               "timeout",
+                                               "angle_min",
+                                               "angle_max",
+                                               "range_min",
+                                               "range_max",
+                                               "deskew",
+                                               "too_close_is_obstacle",
+                                               "footprint_filter" };
   for (auto& kv : item)
     if (known.count(kv.first) == 0)
       throw ParameterError(prefix + "." + kv.first, "unknown key (a typo?)");
@@ -251,8 +258,7 @@ bool MultiLaserScanMergerRos::tryTransform(std::size_t i, const std::string& fra
         error = "tf2 gave no reason";
       return false;
     }
-    sources_[i].output_T_sensor =
-      tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, stamp));
+    sources_[i].output_T_sensor = tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, stamp));
   }
   catch (const std::exception& e)
   {
@@ -305,7 +311,8 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
     ++s.malformed;
     char stamp[64];
     std::snprintf(stamp, sizeof stamp, "%u.%09u", msg->header.stamp.sec, msg->header.stamp.nsec);
-    drop(i, std::string("malformed scan: ") + fault + " (stamp " + stamp + ", frame_id '" + msg->header.frame_id + "')");
+    drop(i,
+         std::string("malformed scan: ") + fault + " (stamp " + stamp + ", frame_id '" + msg->header.frame_id + "')");
     ROS_WARN_THROTTLE(5.0,
                       "%s: source '%s' (%s): malformed scan dropped: %s (stamp %s, clock %.3f, frame_id '%s', %zu "
                       "ranges, %zu intensities, angles %g..%g step %g)",
@@ -403,8 +410,8 @@ void MultiLaserScanMergerRos::odomCallback(const nav_msgs::Odometry::ConstPtr& m
   {
     ++odom_rejected_;
     odom_last_rejection_ = std::string("unexpected error: ") + e.what();
-    ROS_ERROR_THROTTLE(5.0, "%s: odometry message dropped after an unexpected error (please report): %s",
-                       name_.c_str(), e.what());
+    ROS_ERROR_THROTTLE(5.0, "%s: odometry message dropped after an unexpected error (please report): %s", name_.c_str(),
+                       e.what());
   }
 }
 

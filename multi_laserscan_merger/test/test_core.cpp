@@ -382,9 +382,9 @@ TEST(Readings, OutOfRangeFiniteValuesAreNeverObstacles)
   Scan b{ std::vector<float>(360, kInfF), {} };
   for (std::size_t i = 0; i < 20; ++i)
     a.ranges[i] = 0.006f + 0.0007f * static_cast<float>(i);  // 0.006 .. 0.019 m
-  a.ranges[30] = 0.0f;    // "no echo" as 0 (SICK style)
-  a.ranges[40] = 99.0f;   // beyond range_max (30 m)
-  b.ranges[40] = 4.0f;    // a real return in the same direction
+  a.ranges[30] = 0.0f;                                       // "no echo" as 0 (SICK style)
+  a.ranges[40] = 99.0f;                                      // beyond range_max (30 m)
+  b.ranges[40] = 4.0f;                                       // a real return in the same direction
   b.ranges[10] = 2.0f;
   ScanView va = a.view();
   va.range_min = 0.02;
@@ -428,7 +428,7 @@ TEST(InputChecks, StampsFarFromTheClockAreMalformed)
 {
   const std::int64_t now = 1796013955LL * 1000000000LL + 944403171LL;
   EXPECT_EQ(stampFault(1796013955u, 944403171u, now), nullptr);
-  EXPECT_EQ(stampFault(0u, 0u, now), nullptr);  // a bag's stamps years in the past
+  EXPECT_EQ(stampFault(0u, 0u, now), nullptr);                   // a bag's stamps years in the past
   EXPECT_NE(stampFault(4294967295u, 999999999u, now), nullptr);  // the crash of issue 8
   EXPECT_NE(std::string(stampFault(4294967295u, 0u, now)).find("ahead"), std::string::npos);
   EXPECT_NE(stampFault(1796013955u, 1000000000u, now), nullptr);  // nsecs not normalised
@@ -464,8 +464,9 @@ TEST(InputChecks, TimeIncrementSpanningMinutesIsMalformed)
 
 TEST(Footprint, InsidePolygon)
 {
-  const std::vector<std::array<double, 2>> rect = { { { -0.4, -0.3 } }, { { 0.4, -0.3 } }, { { 0.4, 0.3 } },
-                                                    { { -0.4, 0.3 } } };
+  const std::vector<std::array<double, 2>> rect = {
+    { { -0.4, -0.3 } }, { { 0.4, -0.3 } }, { { 0.4, 0.3 } }, { { -0.4, 0.3 } }
+  };
   EXPECT_TRUE(insidePolygon(rect, 0.0, 0.0));
   EXPECT_TRUE(insidePolygon(rect, 0.39, -0.29));
   EXPECT_FALSE(insidePolygon(rect, 0.41, 0.0));
@@ -490,13 +491,13 @@ TEST(Footprint, ReturnsOnTheRobotAreDroppedOthersKept)
   // beam 180; angle pi is beam 0).
   const Eigen::Isometry3d mount = pose(0.3, 0.0, 0.0, 0.0, 0.0, 0.0);
   Scan a{ std::vector<float>(360, kInfF), {} };
-  a.ranges[0] = 0.2f;     // backwards 0.2 m: (0.1, 0), on the robot: dropped
-  a.ranges[90] = 0.25f;   // to the right (-pi/2) 0.25 m: (0.3, -0.25), on the robot
-  a.ranges[100] = 1.0f;   // (0.3 + cos(-80 deg), sin(-80 deg)): outside, kept
-  a.ranges[190] = 0.2f;   // forwards, 10 degrees left: (0.497, 0.035), outside the footprint, kept
-  a.ranges[270] = -kInfF; // too close to the left: at (0.3, 0.05), on the robot: dropped
+  a.ranges[0] = 0.2f;      // backwards 0.2 m: (0.1, 0), on the robot: dropped
+  a.ranges[90] = 0.25f;    // to the right (-pi/2) 0.25 m: (0.3, -0.25), on the robot
+  a.ranges[100] = 1.0f;    // (0.3 + cos(-80 deg), sin(-80 deg)): outside, kept
+  a.ranges[190] = 0.2f;    // forwards, 10 degrees left: (0.497, 0.035), outside the footprint, kept
+  a.ranges[270] = -kInfF;  // too close to the left: at (0.3, 0.05), on the robot: dropped
   Scan b{ std::vector<float>(360, kInfF), {} };
-  b.ranges[90] = 0.25f;   // the same point, but b opted out of the filter
+  b.ranges[90] = 0.25f;  // the same point, but b opted out of the filter
   MergedScan out;
   std::vector<SourceStatus> st;
   core.merge({ input(a.view(), mount) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
@@ -513,8 +514,7 @@ TEST(Footprint, ReturnsOnTheRobotAreDroppedOthersKept)
   for (float r : out.ranges)
     EXPECT_FALSE(std::isfinite(r) && r < 0.45f);  // nothing on the robot
 
-  core.merge({ input(a.view(), mount), input(b.view(), mount) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out,
-             st);
+  core.merge({ input(a.view(), mount), input(b.view(), mount) }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
   EXPECT_NEAR(out.ranges[bin(0.3, -0.25)], std::hypot(0.3, 0.25), 1e-4);  // b's point kept
 
   MergerParams bad = oneSource();
