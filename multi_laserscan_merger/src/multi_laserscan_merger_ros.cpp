@@ -371,8 +371,7 @@ void MultiLaserScanMergerRos::retryPending()
     else if ((ros::WallTime::now() - s.pending_since).toSec() > kTransformWait)
     {
       ++s.transform_failures;
-      drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "' within " +
-                std::to_string(kTransformWait).substr(0, 3) + " s: " + error);
+      drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "' in time: " + error);
       ROS_WARN_THROTTLE(5.0, "%s: source '%s': no transform '%s' -> '%s' at %.3f within %.1f s, scan dropped: %s",
                         name_.c_str(), params_.sources[i].name.c_str(), s.pending_frame.c_str(),
                         params_.output.frame.c_str(), msg->header.stamp.toSec(), kTransformWait, error.c_str());

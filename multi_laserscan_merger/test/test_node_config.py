@@ -144,7 +144,11 @@ def test_missing_transform_is_reported(ros_env):
                             '{header: {frame_id: nowhere}, angle_min: 0.0, angle_max: 1.0, angle_increment: 0.1, '
                             'range_max: 10.0, ranges: [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]}'],
                            env=ros_env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    time.sleep(3.0)
+    time.sleep(2.0)
+    # Scans arrive and are dropped: diagnostics say why, never "no scan received yet".
+    diag = subprocess.run(['rostopic', 'echo', '-n', '1', '/diagnostics'], env=ros_env, capture_output=True,
+                          text=True, timeout=30).stdout
+    time.sleep(1.0)
     pub.send_signal(signal.SIGINT)
     pub.wait(timeout=20)
     alive = p.poll() is None
@@ -152,6 +156,8 @@ def test_missing_transform_is_reported(ros_env):
     out, _ = p.communicate(timeout=20)
     assert alive, out
     assert "source 'side'" in out and "no transform 'nowhere' -> 'base_link'" in out and 'scan dropped' in out, out
+    assert 'none merged yet' in diag and 'transform' in diag and 'no scan received yet' not in diag, diag
+    assert 'hardware_id: "/merger_tf"' in diag, diag
 
 
 FEED = r'''
