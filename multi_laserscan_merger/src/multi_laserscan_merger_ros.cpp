@@ -176,6 +176,7 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   : nh_(nh), private_nh_(private_nh), name_(private_nh.getNamespace()), params_(loadParams(private_nh))
 {
   core_ = std::make_unique<MergerCore>(params_);
+  odom_topic_ = params_.odom_topic.empty() ? "" : nh_.resolveName(params_.odom_topic);
   // A source on the output topic would merge the merger's own output into itself.
   const std::string output_topic = nh_.resolveName(kOutputTopic);
   for (std::size_t i = 0; i < params_.sources.size(); ++i)
@@ -419,7 +420,6 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
   checkTimeJump();
   ++odom_received_;
   last_odom_arrival_ = ros::WallTime::now();
-  const std::string topic = nh_.resolveName(params_.odom_topic);
   const ros::Time now = ros::Time::now();
   if (const char* fault =
         stampFault(msg->header.stamp.sec, msg->header.stamp.nsec, static_cast<std::int64_t>(now.toNSec())))
@@ -428,8 +428,8 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
     char stamp[64];
     std::snprintf(stamp, sizeof stamp, "%u.%09u", msg->header.stamp.sec, msg->header.stamp.nsec);
     odom_last_rejection_ = std::string(fault) + " (stamp " + stamp + ")";
-    ROS_WARN_THROTTLE(5.0, "%s: odometry (%s) with stamp %s ignored: %s (clock %.3f)", name_.c_str(), topic.c_str(),
-                      stamp, fault, now.toSec());
+    ROS_WARN_THROTTLE(5.0, "%s: odometry (%s) with stamp %s ignored: %s (clock %.3f)", name_.c_str(),
+                      odom_topic_.c_str(), stamp, fault, now.toSec());
     retryPending();
     return;
   }
@@ -441,7 +441,7 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
     ++odom_rejected_;
     odom_last_rejection_ = "non-finite pose or zero quaternion";
     ROS_WARN_THROTTLE(5.0, "%s: odometry (%s) with a non-finite pose or a zero quaternion ignored (stamp %.3f)",
-                      name_.c_str(), topic.c_str(), msg->header.stamp.toSec());
+                      name_.c_str(), odom_topic_.c_str(), msg->header.stamp.toSec());
     retryPending();
     return;
   }
@@ -461,7 +461,7 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
   {
     odom_slash_reported_ = true;
     ROS_WARN("%s: odometry (%s): child_frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
-             name_.c_str(), topic.c_str(), msg->child_frame_id.c_str(), odom_child_frame_.c_str());
+             name_.c_str(), odom_topic_.c_str(), msg->child_frame_id.c_str(), odom_child_frame_.c_str());
   }
   retryPending();
 }
@@ -540,9 +540,14 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
                         "is not compensated",
                         name_.c_str(), t_out - odom_.newestTime());
   }
-  else if (!params_.odom_topic.empty() && odom_.empty())
+  else if (!params_.odom_topic.empty() && odom_.empty() && (odom_received_ == 0 || odom_rejected_ < odom_received_))
     ROS_WARN_THROTTLE(10.0, "%s: no odometry yet on '%s': merging without motion compensation", name_.c_str(),
-                      nh_.resolveName(params_.odom_topic).c_str());
+                      odom_topic_.c_str());
+  else if (!params_.odom_topic.empty() && odom_.empty())
+    ROS_WARN_THROTTLE(10.0,
+                      "%s: none of the %zu odometry messages on '%s' was usable (last: %s): merging without "
+                      "motion compensation",
+                      name_.c_str(), odom_received_, odom_topic_.c_str(), odom_last_rejection_.c_str());
   core_->merge(inputs_, t_out, odom, odom != nullptr ? output_T_robot : Eigen::Isometry3d::Identity(), merged_,
                status_);
   for (std::size_t i = 0; i < sources_.size(); ++i)
@@ -631,14 +636,14 @@ void MultiLaserScanMergerRos::odometryDiagnostics(diagnostic_updater::Diagnostic
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "motion compensation disabled (odom_topic empty)");
     return;
   }
-  stat.add("topic", nh_.resolveName(params_.odom_topic));
+  stat.add("topic", odom_topic_);
   stat.add("messages received", odom_received_);
   stat.add("messages ignored", odom_rejected_);
   stat.add("last ignored because", odom_last_rejection_.empty() ? "none" : odom_last_rejection_);
   stat.add("queue entries", odom_.size());
   if (odom_.empty())
   {
-    if (odom_received_ == 0)
+    if (odom_received_ == 0 || odom_rejected_ < odom_received_)
       stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no odometry: merging without motion compensation");
     else
       stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,

@@ -160,6 +160,54 @@ def test_missing_transform_is_reported(ros_env):
     assert 'hardware_id: "/merger_tf"' in diag, diag
 
 
+BAD_ODOM_FEED = r'''
+import math, sys, time, rospy
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import LaserScan
+rospy.init_node('bad_odom_feed')
+odom = rospy.Publisher('/o/odom', Odometry, queue_size=10)
+scan = rospy.Publisher('/o/scan', LaserScan, queue_size=10)
+merged = []
+rospy.Subscriber('/merged_scan', LaserScan, lambda m: merged.append(m))
+time.sleep(1.5)
+def bad_odom(i):
+    o = Odometry()
+    o.header.stamp, o.child_frame_id = rospy.Time.now(), 'base_link'
+    o.pose.pose.orientation.w = [0.0, math.nan][i % 2]  # zero, then NaN quaternions only
+    odom.publish(o)
+for i in range(3):  # odometry first: the merger has received some (none usable) before any scan
+    bad_odom(i)
+time.sleep(0.5)
+for i in range(20):
+    bad_odom(i)
+    s = LaserScan()
+    s.header.stamp, s.header.frame_id = rospy.Time.now(), 'base_link'
+    s.angle_min, s.angle_max, s.angle_increment = -1.0, 1.0, 0.1
+    s.range_max, s.ranges = 10.0, [2.0] * 21
+    scan.publish(s)
+    time.sleep(0.1)
+time.sleep(0.5)
+print('merged', len(merged))
+sys.stdout.flush()
+'''
+
+
+def test_unusable_odometry_is_named(ros_env):
+    set_params(ros_env, 'merger_o', 'odom_topic: o/odom\nsources: [{name: front, topic: o/scan}]')
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_o'],
+                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(1.0)
+    feed = subprocess.run(['/usr/bin/python3', '-c', BAD_ODOM_FEED], env=ros_env, capture_output=True, text=True,
+                          timeout=60)
+    alive = p.poll() is None
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=20)
+    assert alive, out
+    assert int(feed.stdout.split()[-1]) >= 10, feed.stdout + feed.stderr  # merged without motion compensation
+    assert 'zero quaternion ignored' in out and "none of the" in out and 'odometry messages' in out, out
+    assert 'no odometry yet' not in out, out
+
+
 FEED = r'''
 import sys, rospy
 from rosgraph_msgs.msg import Clock

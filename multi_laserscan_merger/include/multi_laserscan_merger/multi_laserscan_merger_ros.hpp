@@ -86,6 +86,7 @@ private:
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::vector<SourceState> sources_;
   OdometryBuffer odom_;
+  std::string odom_topic_;  ///< resolved, for messages
   std::string odom_child_frame_;
   ros::Time odom_newest_;  ///< stamp of the newest entry of odom_ (zero when empty)
   ros::WallTime last_odom_arrival_;
