@@ -187,7 +187,8 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   odom_ = OdometryBuffer(static_cast<std::size_t>(params_.odom_queue_size));
   sources_.resize(params_.sources.size());
   inputs_.resize(params_.sources.size());
-  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_, nh_);
+  tf_sub_ = nh_.subscribe("/tf", 100, &MultiLaserScanMergerRos::tfCallback, this);
+  tf_static_sub_ = nh_.subscribe("/tf_static", 100, &MultiLaserScanMergerRos::tfStaticCallback, this);
   last_now_ = ros::Time::now();
   last_report_ = ros::WallTime::now();
 
@@ -267,6 +268,33 @@ bool MultiLaserScanMergerRos::tryTransform(std::size_t i, const std::string& fra
     return false;
   }
   return true;
+}
+
+void MultiLaserScanMergerRos::addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static)
+{
+  // tf_buffer_ locks itself: no mutex_ here.
+  const std::int64_t now = static_cast<std::int64_t>(ros::Time::now().toNSec());
+  const std::string& authority = event.getPublisherName();
+  for (const auto& t : event.getMessage()->transforms)
+  {
+    // tf2 adds its cache length to the stamps (ros::Time + ros::Duration throws beyond 2^32 s).
+    std::string why;
+    if (const char* fault = stampFault(t.header.stamp.sec, t.header.stamp.nsec, now))
+      why = fault;
+    else
+      try
+      {
+        tf_buffer_.setTransform(t, authority, is_static);
+      }
+      catch (const std::exception& e)
+      {
+        why = e.what();
+      }
+    if (!why.empty())
+      ROS_WARN_THROTTLE(5.0, "%s: transform '%s' -> '%s' from %s on %s with stamp %u.%09u ignored: %s", name_.c_str(),
+                        t.header.frame_id.c_str(), t.child_frame_id.c_str(), authority.c_str(),
+                        is_static ? "/tf_static" : "/tf", t.header.stamp.sec, t.header.stamp.nsec, why.c_str());
+  }
 }
 
 void MultiLaserScanMergerRos::drop(std::size_t i, std::string why)

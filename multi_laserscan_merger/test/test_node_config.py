@@ -135,6 +135,25 @@ def test_malformed_scan_is_reported(ros_env):
     assert "source 'front'" in out and 'malformed scan dropped' in out and 'ranges length' in out, out
 
 
+def test_tf_with_a_stamp_near_2_to_the_32_is_ignored(ros_env):
+    # tf2 adds its cache length to such a stamp and throws "Time is out of dual 32-bit range":
+    # through tf2_ros::TransformListener that aborted the process (and a whole nodelet manager).
+    set_params(ros_env, 'merger_tfx', 'odom_topic: ""\nsources: [{name: a, topic: tfx/scan}]')
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_tfx'],
+                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(2.0)
+    subprocess.run(['rostopic', 'pub', '-1', '/tf', 'tf2_msgs/TFMessage',
+                    '{transforms: [{header: {stamp: {secs: 4294967290, nsecs: 0}, frame_id: base_link}, '
+                    'child_frame_id: x, transform: {rotation: {w: 1.0}}}]}'],
+                   env=ros_env, check=True, capture_output=True, timeout=30)
+    time.sleep(1.0)
+    alive = p.poll() is None
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=20)
+    assert alive, out
+    assert "transform 'base_link' -> 'x'" in out and 'stamp 4294967290.000000000 ignored' in out, out
+
+
 def test_missing_transform_is_reported(ros_env):
     set_params(ros_env, 'merger_tf', 'odom_topic: ""\nsources: [{name: side, topic: tf/scan}]')
     p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_tf'],

@@ -11,8 +11,8 @@
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
+#include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
 
 #include "multi_laserscan_merger/merger_core.hpp"
 
@@ -59,6 +59,11 @@ private:
   void scanCallback(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg);
   void handleScan(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg);
   void odomCallback(const nav_msgs::Odometry::ConstPtr& msg);
+  /// Feeds /tf and /tf_static into tf_buffer_ (instead of tf2_ros::TransformListener, whose
+  /// callback lets tf2 throw on a stamp near 2^32 s and takes the process down).
+  void addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static);
+  void tfCallback(const ros::MessageEvent<const tf2_msgs::TFMessage>& event) { addTransforms(event, false); }
+  void tfStaticCallback(const ros::MessageEvent<const tf2_msgs::TFMessage>& event) { addTransforms(event, true); }
   void handleOdometry(const nav_msgs::Odometry::ConstPtr& msg);
   void timerCallback(const ros::TimerEvent&);
 
@@ -83,7 +88,7 @@ private:
   std::mutex mutex_;
 
   tf2_ros::Buffer tf_buffer_;
-  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  ros::Subscriber tf_sub_, tf_static_sub_;
   std::vector<SourceState> sources_;
   OdometryBuffer odom_;
   std::string odom_topic_;  ///< resolved, for messages

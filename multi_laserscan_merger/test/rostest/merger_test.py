@@ -6,8 +6,8 @@ lidars at 8 Hz, two 328-beam camera scans at 14 Hz, odometry at 50 Hz, static tf
 that the merged scan comes for every input (~mode every) or at the set rate (~mode rate),
 that it shows the room and carries an input's stamp bit for bit, that when one source stops the
 output goes on without it and /diagnostics says so, and recovers when it comes back, and that
-malformed scans and odometry (stamps 2^32 s ahead, nsecs not normalised, empty frame ids, NaN or
-zero quaternions) are dropped, counted and named while valid input keeps being merged (issue 8)."""
+malformed scans, odometry and tf (stamps 2^32 s ahead, nsecs not normalised, empty frame ids, NaN
+or zero quaternions) are dropped, counted and named while valid input keeps being merged (issue 8)."""
 import math
 import threading
 import unittest
@@ -20,6 +20,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
 
 ROOM = 3.0
 # name, frame, x, y, z, yaw, beams, angle_min, increment, rate (Hz), deskew time_increment
@@ -69,6 +70,7 @@ class MergerTest(unittest.TestCase):
         cls.exact_outputs = []  # (secs, nsecs)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diagnostics, queue_size=20)
         cls.odom_pub = rospy.Publisher('odom', Odometry, queue_size=10)
+        cls.tf_pub = rospy.Publisher('/tf', TFMessage, queue_size=10)
         cls.pubs = {}
         cls.timers = []
         for src in SOURCES:
@@ -255,6 +257,10 @@ class MergerTest(unittest.TestCase):
             self.publish_odom(quaternion=(float('nan'), 0.0, 0.0, 1.0))
             self.publish_odom(quaternion=(0.0, 0.0, 0.0, 0.0))
             self.publish_odom(quaternion=(0.0, 0.0, 2 * math.sin(0.15), 2 * math.cos(0.15)))  # normalised, used
+            t = TransformStamped()  # tf2 itself throws on a stamp this close to 2^32 s
+            t.header.stamp, t.header.frame_id, t.child_frame_id = rospy.Time(4294967290, 0), 'base_link', 'junk'
+            t.transform.rotation.w = 1.0
+            self.tf_pub.publish(TFMessage(transforms=[t]))
             rospy.sleep(0.1)
         # A tf1-era frame id ('/cam_front'): tf2 refuses it, the merger strips the slash.
         with self.lock:
