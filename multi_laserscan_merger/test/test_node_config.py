@@ -119,18 +119,26 @@ def test_bad_config_nodelet_fatal(ros_env):
     assert 'merging 1 sources' not in out
 
 
-def test_malformed_scan_is_reported(ros_env):
-    set_params(ros_env, 'merger_m', 'odom_topic: ""\nsources: [{name: front, topic: m/scan}]')
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_m'],
-                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+def node_output_after_one_message(env, name, yaml_text, topic, msg_type, msg):
+    """Starts the node, publishes one message, stops it: (still alive before the stop, output)."""
+    set_params(env, name, yaml_text)
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name],
+                         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     time.sleep(2.0)
-    subprocess.run(['rostopic', 'pub', '-1', '/m/scan', 'sensor_msgs/LaserScan',
-                    '{header: {frame_id: base_link}, angle_min: 0.0, angle_max: 1.0, angle_increment: 0.1, '
-                    'range_max: 10.0, ranges: [1.0, 2.0]}'], env=ros_env, check=True, capture_output=True, timeout=30)
+    subprocess.run(['rostopic', 'pub', '-1', topic, msg_type, msg], env=env, check=True, capture_output=True,
+                   timeout=30)
     time.sleep(1.0)
     alive = p.poll() is None
     p.send_signal(signal.SIGINT)
     out, _ = p.communicate(timeout=20)
+    return alive, out
+
+
+def test_malformed_scan_is_reported(ros_env):
+    alive, out = node_output_after_one_message(
+        ros_env, 'merger_m', 'odom_topic: ""\nsources: [{name: front, topic: m/scan}]', '/m/scan',
+        'sensor_msgs/LaserScan', '{header: {frame_id: base_link}, angle_min: 0.0, angle_max: 1.0, '
+        'angle_increment: 0.1, range_max: 10.0, ranges: [1.0, 2.0]}')
     assert alive, out
     assert "source 'front'" in out and 'malformed scan dropped' in out and 'ranges length' in out, out
 
@@ -138,18 +146,10 @@ def test_malformed_scan_is_reported(ros_env):
 def test_tf_with_a_stamp_near_2_to_the_32_is_ignored(ros_env):
     # tf2 adds its cache length to such a stamp and throws "Time is out of dual 32-bit range":
     # through tf2_ros::TransformListener that aborted the process (and a whole nodelet manager).
-    set_params(ros_env, 'merger_tfx', 'odom_topic: ""\nsources: [{name: a, topic: tfx/scan}]')
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_tfx'],
-                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(2.0)
-    subprocess.run(['rostopic', 'pub', '-1', '/tf', 'tf2_msgs/TFMessage',
-                    '{transforms: [{header: {stamp: {secs: 4294967290, nsecs: 0}, frame_id: base_link}, '
-                    'child_frame_id: x, transform: {rotation: {w: 1.0}}}]}'],
-                   env=ros_env, check=True, capture_output=True, timeout=30)
-    time.sleep(1.0)
-    alive = p.poll() is None
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
+    alive, out = node_output_after_one_message(
+        ros_env, 'merger_tfx', 'odom_topic: ""\nsources: [{name: a, topic: tfx/scan}]', '/tf', 'tf2_msgs/TFMessage',
+        '{transforms: [{header: {stamp: {secs: 4294967290, nsecs: 0}, frame_id: base_link}, child_frame_id: x, '
+        'transform: {rotation: {w: 1.0}}}]}')
     assert alive, out
     assert "transform 'base_link' -> 'x'" in out and 'stamp 4294967290.000000000 ignored' in out, out
 
