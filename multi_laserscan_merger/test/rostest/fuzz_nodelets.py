@@ -8,7 +8,6 @@ correct output within ~max_latency seconds, stamped exactly as the valid input (
 Every scan either node publishes is checked (length against the angles, no finite range
 outside its limits), and the manager must be alive at the end. Prints the counts."""
 import collections
-import math
 import os
 import random
 import sys
@@ -19,58 +18,16 @@ import rosnode
 import rospy
 import rostest
 import tf2_ros
-from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan, PointCloud2
 
-from scan_watch import ScanWatch
+from scan_watch import LIDAR_DISTANCE, WALL_DISTANCE, ScanWatch, mount_transforms, room_fraction, wall_fraction
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..", "..", "scripts"))
 from laserscan_toolbox import fuzz_inputs as fz  # noqa: E402
 
-# Sensor mounts on base_link (x, y, z); no rotation, so the expected ranges are simple.
-MOUNTS = {"lidar": (0.0, 0.0, 0.2), "camera": (0.0, 0.0, 0.3)}
-LIDAR_DISTANCE = 2.0  # the valid lidar scan: a round room of this radius
-WALL_DISTANCE = 1.5  # the valid cloud: a wall this far ahead of the camera
-
-
-def publish_mounts(broadcaster, frames):
-    transforms = []
-    for frame in frames:
-        t = TransformStamped()
-        t.header.stamp = rospy.Time.now()
-        t.header.frame_id = "base_link"
-        t.child_frame_id = frame
-        t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = MOUNTS[frame]
-        t.transform.rotation.w = 1.0
-        transforms.append(t)
-    broadcaster.sendTransform(transforms)
-
-
-def beam_angles(msg):
-    return [msg.angle_min + i * msg.angle_increment for i in range(len(msg.ranges))]
-
-
-def camera_scan_problems(msg):
-    """The valid cloud's scan: the wall ahead at WALL_DISTANCE..hypot(WALL_DISTANCE, 0.5)."""
-    front = [r for a, r in zip(beam_angles(msg), msg.ranges) if abs(a) < 0.3]
-    if msg.header.frame_id != "base_link":
-        return [f"frame {msg.header.frame_id!r}"]
-    bad = [r for r in front if not WALL_DISTANCE - 0.01 <= r <= math.hypot(WALL_DISTANCE, 0.5) + 0.01]
-    return [f"{len(bad)} of {len(front)} front beams not on the wall, e.g. {bad[:3]}"] if bad or not front else []
-
-
-def merged_scan_problems(msg):
-    """The valid lidar scan in the merged output: the room at LIDAR_DISTANCE beside and behind
-    (where the camera does not look), nothing farther than the room ahead."""
-    side = [r for a, r in zip(beam_angles(msg), msg.ranges) if abs(a) > 1.0]
-    on_room = sum(1 for r in side if abs(r - LIDAR_DISTANCE) < 0.02)
-    problems = []
-    if msg.header.frame_id != "base_link":
-        problems.append(f"frame {msg.header.frame_id!r}")
-    if not side or on_room < 0.95 * len(side):
-        problems.append(f"only {on_room} of {len(side)} side beams on the room at {LIDAR_DISTANCE} m")
-    return problems
+def frame_problem(msg):
+    return [] if msg.header.frame_id == "base_link" else [f"frame {msg.header.frame_id!r}"]
 
 
 class Pipeline:
@@ -105,7 +62,9 @@ class Pipeline:
         if cam is None:
             problems.append(f"no camera scan stamped {s1.secs}.{s1.nsecs:09d} within {timeout} s")
         else:
-            problems += ["camera scan: " + p for p in camera_scan_problems(cam)]
+            problems += ["camera scan: " + p for p in frame_problem(cam)]
+            if wall_fraction(cam) < 1.0:
+                problems.append(f"camera scan: only {wall_fraction(cam):.0%} of the front beams on the wall")
         s2 = rospy.Time.now()
         if s2 <= s1:
             s2 = s1 + rospy.Duration(0, 1)
@@ -120,7 +79,9 @@ class Pipeline:
                             (f" (one came stamped {later.header.stamp.secs}.{later.header.stamp.nsecs:09d})"
                              if later else ""))
         else:
-            problems += ["merged scan: " + p for p in merged_scan_problems(merged)]
+            problems += ["merged scan: " + p for p in frame_problem(merged)]
+            if room_fraction(merged) < 0.95:
+                problems.append(f"merged scan: only {room_fraction(merged):.0%} of the side beams on the room")
         return camera_latency, merged_latency, problems
 
 
@@ -132,7 +93,7 @@ class NodeFuzz(unittest.TestCase):
         max_latency = rospy.get_param("~max_latency", 1.0)
         rng = random.Random(seed)
         static = tf2_ros.StaticTransformBroadcaster()
-        publish_mounts(static, ["lidar", "camera"])
+        static.sendTransform(mount_transforms(["lidar", "camera"], rospy.Time.now()))
         p = Pipeline()
         self.assertTrue(p.wait_connected(60.0), "the nodelets did not subscribe within 60 s")
         # Start-up (plugin loading, tf) may take long on a loaded machine: retry the first round trip.
