@@ -61,7 +61,7 @@ def malformed_cloud(rng, frame, stamp):
     msg.header.frame_id = frame
     msg.header.stamp = stamp
     if case == "point_step":
-        msg.point_step = rng.choice([0, 1, step - 1, step + 1, 2 ** 32 - 1, 2 ** 31])
+        msg.point_step = rng.choice([0, 1, 3 * size - 1, step + 1, 2 ** 32 - 1, 2 ** 31])
     elif case == "row_step":
         msg.row_step = rng.choice([0, msg.row_step - 1, msg.row_step + 1, 2 ** 32 - 1])
     elif case == "size":
@@ -75,7 +75,7 @@ def malformed_cloud(rng, frame, stamp):
         else:
             fields[rng.randrange(3)].count = rng.choice([0, 2 ** 32 - 1])
     elif case == "datatype":
-        fields[rng.randrange(3)].datatype = rng.choice(DATATYPES)
+        fields[rng.randrange(3)].datatype = rng.choice([d for d in DATATYPES if d != dtype])
     elif case == "offset":
         fields[rng.randrange(3)].offset = rng.choice([step, step - 1, 2 ** 32 - 1, 2 ** 32 - 4, 2 ** 31])
     elif case == "bigendian":
