@@ -120,23 +120,31 @@ def markdown(res):
 
 
 def plot(res, path):
+    """RSS of every process and the total (top), and each one's change since its first sample
+    (bottom: a leak shows as a rising line, whatever the process's size)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig, (ax, dax) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
     total = {}
     for name, series in sorted(res["rss"].items()):
-        ax.plot([t for t, _ in series], [v / MB for _, v in series], label=name, linewidth=1)
+        ts, mb = [t for t, _ in series], [v / MB for _, v in series]
+        ax.plot(ts, mb, label=name, linewidth=1)
+        dax.plot(ts, [m - mb[0] for m in mb], label=name, linewidth=1)
         for t, v in series:
             total[t] = total.get(t, 0) + v
     ts = sorted(total)
-    ax.plot(ts, [total[t] / MB for t in ts], label="total", color="black", linewidth=2)
-    ax.axvline(res["summary"]["warmup_s"], color="grey", linestyle="--", linewidth=1, label="end of warm-up")
-    ax.set_xlabel("time since the feed started, s")
+    tot = [total[t] / MB for t in ts]
+    ax.plot(ts, tot, label="total", color="black", linewidth=2)
+    dax.plot(ts, [v - tot[0] for v in tot], label="total", color="black", linewidth=2)
+    for a in (ax, dax):
+        a.axvline(res["summary"]["warmup_s"], color="grey", linestyle="--", linewidth=1, label="end of warm-up")
+        a.grid(alpha=0.3)
     ax.set_ylabel("RSS, MB")
     ax.set_title("Soak at %gx: RSS of every process of the pipeline" % res["rate"])
     ax.legend(fontsize=7, loc="center right")
-    ax.grid(alpha=0.3)
+    dax.set_ylabel("RSS change since the start, MB")
+    dax.set_xlabel("time since the feed started, s")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
