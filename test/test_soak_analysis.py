@@ -20,7 +20,8 @@ def test_slope_of_a_line_and_of_degenerate_inputs():
 
 def test_growth_ignores_the_warm_up():
     # Memory climbs by 50 MB during the warm-up, then stays flat with noise.
-    samples = [(0, 100 * MB), (10, 150 * MB)] + [(t, (150 + (0.1 if t % 20 else -0.1)) * MB) for t in range(20, 130, 10)]
+    flat = [(t, (150 + (0.1 if t % 20 else -0.1)) * MB) for t in range(20, 130, 10)]
+    samples = [(0, 100 * MB), (10, 150 * MB)] + flat
     s, g = soak.growth_after_warmup(samples, warmup=20)
     assert abs(g) < 0.2 * MB
     s_all, g_all = soak.growth_after_warmup(samples, warmup=0)

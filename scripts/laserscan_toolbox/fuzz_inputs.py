@@ -105,7 +105,8 @@ def valid_cloud(frame, stamp, distance=1.5, width=121, height=5):
 def valid_scan(frame, stamp, beams=360, distance=2.0):
     """A full turn of `beams` readings, all at `distance` (a round room around the sensor)."""
     inc = 2 * math.pi / beams
-    return LaserScan(header=Header(frame_id=frame, stamp=stamp), angle_min=-math.pi, angle_max=-math.pi + (beams - 1) * inc,
+    return LaserScan(header=Header(frame_id=frame, stamp=stamp), angle_min=-math.pi,
+                     angle_max=-math.pi + (beams - 1) * inc,
                      angle_increment=inc, time_increment=0.0, scan_time=0.1, range_min=0.05, range_max=30.0,
                      ranges=[distance] * beams, intensities=[])
 

@@ -189,7 +189,8 @@ class FaultRecovery(unittest.TestCase):
         self.set(odom_on=False)
         t = d.elapsed()
         self.assert_rate(t, t + 2.0, FULL_RATE, "odometry stopped", complete)
-        t = self.end_fault("odometry back, jumped 10 m", lambda: (setattr(d, "odom_on", True), setattr(d, "odom_x", 10.0)))
+        t = self.end_fault("odometry back, jumped 10 m",
+                           lambda: (setattr(d, "odom_on", True), setattr(d, "odom_x", 10.0)))
         self.assert_rate(t, t + 1.0, FULL_RATE, "after the odometry jump", complete)
         print("recovery times (simulated s): " + ", ".join(f"{k} {v:.3f}" for k, v in self.recoveries.items()))
 
