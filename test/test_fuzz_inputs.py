@@ -34,14 +34,15 @@ def test_every_case_is_reached_and_every_message_serialises():
     cases = set()
     for _ in range(400):
         for msg, case in (fz.malformed_cloud(rng, "camera", STAMP), fz.malformed_scan(rng, "lidar", STAMP),
-                          fz.malformed_odometry(rng, "odom", "base_link", STAMP)):
+                          fz.malformed_odometry(rng, "odom", "base_link", STAMP),
+                          fz.malformed_tf(rng, "base_link", "camera", STAMP)):
             serialised(msg)
             cases.add(case)
     kinds = {c.split("/")[0] for c in cases}
-    assert kinds == {"cloud", "scan", "odometry"}
+    assert kinds == {"cloud", "scan", "odometry", "tf"}
     assert {"cloud/size", "cloud/fields", "cloud/bigendian", "scan/length", "scan/million", "scan/stamp",
             "odometry/zero_quaternion", "odometry/jump"} <= cases
-    assert len(cases) >= 28
+    assert len(cases) >= 35
 
 
 def test_valid_inputs_are_consistent():

@@ -2,16 +2,18 @@
 
 The same case ideas as the cores' sanitizer fuzz (test/fuzz/fuzz_values.h), as whole
 messages: PointCloud2 with broken layouts, LaserScan with broken geometry or readings,
-Odometry with broken poses or stamps. Every function takes a random.Random, so a seed
+Odometry with broken poses or stamps, tf with broken transforms. Every function takes a random.Random, so a seed
 replays a run. The malformed_* functions return (message, case): the case names what was
 broken, for the counts the test prints."""
 import math
 import struct
 
 import genpy
+from geometry_msgs.msg import TransformStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 from std_msgs.msg import Header
+from tf2_msgs.msg import TFMessage
 
 NAN = float("nan")
 INF = float("inf")
@@ -177,3 +179,26 @@ def malformed_odometry(rng, frame, child, stamp):
     elif case == "child":
         msg.child_frame_id = rng.choice(FRAMES_BAD)
     return msg, "odometry/" + case
+
+
+def malformed_tf(rng, parent, child, stamp):
+    """A /tf message about the child frame that tf2 must refuse (NaN or infinite translation,
+    zero, non-normalised or NaN rotation, no child frame, a frame its own parent)."""
+    t = TransformStamped(header=Header(frame_id=parent, stamp=stamp), child_frame_id=child)
+    t.transform.rotation.w = 1.0
+    case = rng.choice(["nan_translation", "inf_translation", "zero_rotation", "unnormalised", "nan_rotation",
+                       "no_child", "self"])
+    if case in ("nan_translation", "inf_translation"):
+        value = NAN if case == "nan_translation" else rng.choice([INF, -INF])
+        setattr(t.transform.translation, rng.choice("xyz"), value)
+    elif case == "zero_rotation":
+        t.transform.rotation.w = 0.0
+    elif case == "unnormalised":
+        t.transform.rotation.w = rng.choice([2.0, 1e-3, 1e6])
+    elif case == "nan_rotation":
+        setattr(t.transform.rotation, rng.choice("xyzw"), NAN)
+    elif case == "no_child":
+        t.child_frame_id = ""
+    elif case == "self":
+        t.child_frame_id = parent
+    return TFMessage(transforms=[t]), "tf/" + case

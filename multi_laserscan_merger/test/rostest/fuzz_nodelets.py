@@ -2,8 +2,8 @@
 """Node fuzz (issue 8), run by fuzz_nodelets.test.
 
 A converter and a merger nodelet share one manager (fuzz_pipeline.launch). Each burst sends
-seeded malformed clouds (to the converter), scans (to the merger's lidar source) and odometry
-(laserscan_toolbox.fuzz_inputs), while the camera's mount is published on /tf at 50 Hz; then a
+seeded malformed clouds (to the converter), scans (to the merger's lidar source), odometry
+and tf (laserscan_toolbox.fuzz_inputs), while the camera's mount is published on /tf at 50 Hz; then a
 valid cloud and a valid lidar scan must each give a correct output within ~max_latency
 seconds, stamped exactly as the valid input (bit for bit).
 Every scan either node publishes is checked (length against the angles, no finite range
@@ -97,9 +97,14 @@ class NodeFuzz(unittest.TestCase):
         tf2_ros.StaticTransformBroadcaster().sendTransform(mount_transforms(["lidar"], rospy.Time.now()))
         # The camera's mount is dynamic (as on a tilting head), so that clouds wait in the
         # converter's tf filter: extreme stamps reach tf2's and roscpp's time arithmetic there.
-        tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=10)
-        tf_timer = rospy.Timer(rospy.Duration(0.02),
-                               lambda _: tf_pub.publish(TFMessage(mount_transforms(["camera"], rospy.Time.now()))))
+        tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=100)
+        mounts_sent = [0]
+
+        def send_mount(_):
+            tf_pub.publish(TFMessage(mount_transforms(["camera"], rospy.Time.now())))
+            mounts_sent[0] += 1
+
+        tf_timer = rospy.Timer(rospy.Duration(0.02), send_mount)
         self.addCleanup(tf_timer.shutdown)
         p = Pipeline()
         self.assertTrue(p.wait_connected(60.0), "the nodelets did not subscribe within 60 s")
@@ -124,11 +129,23 @@ class NodeFuzz(unittest.TestCase):
                 elif kind < 0.8:
                     msg, case = fz.malformed_scan(rng, "lidar", now)
                     p.scan_pub.publish(msg)
-                else:
+                elif kind < 0.95:
                     msg, case = fz.malformed_odometry(rng, "odom", "base_link", now)
                     p.odom_pub.publish(msg)
+                else:
+                    # Only for the camera, whose mount comes again 20 ms later: tf2 keeps an infinite
+                    # translation (it refuses NaN only), and a /tf message for a static frame
+                    # replaces its static transform for good (see docs/robustness.md).
+                    msg, case = fz.malformed_tf(rng, "base_link", "camera", now)
+                    tf_pub.publish(msg)
                 counts[case] += 1
                 time.sleep(0.002)  # let the nodes take most of them (their queues are short)
+            # tf2 interpolates the camera's mount at the valid cloud's stamp from the samples
+            # around it: two good ones must have followed the burst's last malformed one.
+            sent = mounts_sent[0]
+            deadline = time.monotonic() + 10.0
+            while mounts_sent[0] < sent + 2 and time.monotonic() < deadline:
+                time.sleep(0.005)
             camera_latency, merged_latency, problems = p.round_trip(max_latency)
             failures += [f"burst {burst}: {problem}" for problem in problems]
             if camera_latency is not None:
@@ -140,7 +157,7 @@ class NodeFuzz(unittest.TestCase):
         total = sum(counts.values())
         kinds = collections.Counter(case.split("/")[0] for case in counts.elements())
         print(f"\nnode fuzz (seed {seed}): {total} malformed messages in {bursts} bursts "
-              f"({kinds['cloud']} clouds, {kinds['scan']} scans, {kinds['odometry']} odometry); "
+              f"({kinds['cloud']} clouds, {kinds['scan']} scans, {kinds['odometry']} odometry, {kinds['tf']} tf); "
               f"{len(merged_latencies)}/{bursts} valid round trips correct in time; "
               f"worst latency camera {max(camera_latencies, default=float('nan')):.3f} s, "
               f"merged {max(merged_latencies, default=float('nan')):.3f} s; "
