@@ -76,7 +76,11 @@ inline __attribute__((always_inline)) void projectLoop(std::size_t len, const fl
     float rel = fastAtan2(y, x) - amin;
     rel += rel < 0.0f ? kTwoPi : 0.0f;
     rel -= rel >= kTwoPi ? kTwoPi : 0.0f;
-    int k = static_cast<int>(rel * inv_inc + 0.5f);
+    // A far transform (a huge odometry position or mount translation) can make x, y infinite
+    // and rel NaN, and a degenerate output increment inv_inc infinite: converting those to int
+    // is undefined, so anything outside [0, 2e9) becomes -1 (a scratch bin below).
+    const float bin = rel * inv_inc + 0.5f;
+    int k = static_cast<int>((bin >= 0.0f) & (bin < 2e9f) ? bin : -1.0f);
     k -= k >= wrap ? wrap : 0;
     const float d = std::sqrt(x * x + y * y);
     og[j] = ok ? d : kInvalidMark;
