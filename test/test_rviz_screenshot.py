@@ -121,6 +121,31 @@ def test_generated_view_of_the_simulated_robot_is_the_shipped_one(tmp_path):
         rc.make_config("", "base_link", [], [], [])
 
 
+def test_command_lines(tmp_path):
+    tools = os.path.join(REPO, "scripts")
+
+    def run(*args):
+        return subprocess.run([sys.executable] + list(args), capture_output=True, text=True,
+                              timeout=60)
+    out = tmp_path / "mine.rviz"
+    p = run(os.path.join(tools, "rviz_config"), "--fixed-frame", "map", "--scans", "/a,/b",
+            "--merged", "none", "--clouds", "none", "--output", str(out))
+    assert p.returncode == 0, p.stderr
+    from laserscan_toolbox.rviz_shot import displays
+    assert [d[1] for d in displays(str(out))] == ["/a", "/b"]
+    assert "Fixed Frame: map" in out.read_text()
+    p = run(os.path.join(tools, "rviz_config"), "--template", str(tmp_path / "none.rviz"))
+    assert p.returncode == 2 and "none.rviz" in p.stderr
+    p = run(os.path.join(tools, "rviz_config"), "--fixed-frame", "")
+    assert p.returncode == 2 and "fixed frame" in p.stderr
+    p = run(os.path.join(tools, "rviz_screenshot"), str(tmp_path / "none.bag"))
+    assert p.returncode == 2 and "no such bag" in p.stderr
+    p = run(os.path.join(tools, "rviz_screenshot"), DUAL_BAG, "--play", "0")
+    assert p.returncode == 2
+    p = run(os.path.join(tools, "rviz_screenshot"), "--help")
+    assert p.returncode == 0 and "--fixed-frame" in p.stdout
+
+
 def test_rviz_launch_shows_a_users_bag(tmp_path):
     """launch/rviz.launch with the dual-lidar robot's fixed frame and topics, while its real
     bag plays through dual_lidar_demo.launch: no display in error (the panel shows no red

@@ -155,7 +155,7 @@ def main(argv=None):
     p.add_argument("--arg", action="append", default=[], metavar="NAME:=VALUE",
                    help="argument for that launch file")
     add_view_arguments(p)
-    p.add_argument("--start", type=float, default=0.0, help="bag time to start at (s)")
+    p.add_argument("--start", type=float, default=0.0, help="seconds into the bag to start at (default 0)")
     p.add_argument("--play", type=float, default=6.0, help="seconds of bag to play")
     p.add_argument("--output", default="rviz.png", help="PNG to write (default %(default)s)")
     try:
