@@ -2,8 +2,10 @@
 import glob
 import os
 import re
+import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -114,6 +116,158 @@ def test_launch_fragment_aborts_roslaunch_on_a_bad_config(tmp_path):
     p = subprocess.run(["roslaunch", "--dump-params", launch, "config:=%s" % ok],
                        capture_output=True, text=True, env=env, timeout=60)
     assert p.returncode == 0 and "/config_check/config" in p.stdout, p.stdout + p.stderr
+
+
+DUAL_BAG = os.path.join(HERE, "data", "real", "dual_lidar_scans_demo.bag")
+DUAL_MERGER = os.path.join(REPO, "config", "dual_lidar_demo", "merger.yaml")
+# the bag's mounts (test/data/real/README.md); the bag itself has no tf
+FRONT_MOUNT = "0.23565 -0.0005 0.06795 0 0 0 base_link front_scanner"
+REAR_MOUNT = "-0.23832 0.00542 0.09888 3.141592 0 0 base_link rear_scanner"
+
+
+def test_bag_without_tf_needs_the_mounts_and_takes_them_from_the_command_line():
+    code, out = run(DUAL_MERGER, "--bag", DUAL_BAG)
+    assert code == 1 and "--static-tf" in out, out  # says how to give the mounts
+    code, out = run(DUAL_MERGER, "--bag", DUAL_BAG, "--static-tf", FRONT_MOUNT)
+    assert code == 1, out
+    assert "sources[1].topic: its frame 'rear_scanner' has no tf path" in out
+    code, out = run(DUAL_MERGER, "--bag", DUAL_BAG, "--static-tf", FRONT_MOUNT,
+                    "--static-tf", REAR_MOUNT)
+    assert code == 0, out
+    # the quaternion form of the same mount
+    code, out = run(DUAL_MERGER, "--bag", DUAL_BAG, "--static-tf", FRONT_MOUNT,
+                    "--static-tf", "-0.23832 0.00542 0.09888 0 0 1 0 base_link rear_scanner")
+    assert code == 0, out
+
+
+def test_bag_mounts_from_a_launch_file(tmp_path):
+    code, out = run(DUAL_MERGER, "--bag", DUAL_BAG, "--tf-launch",
+                    os.path.join(REPO, "launch", "dual_lidar_demo.launch"))
+    assert code == 0, out
+    # a launch with the old tf package's publisher (period argument) and only one mount
+    launch = tmp_path / "mounts.launch"
+    launch.write_text('<launch><node pkg="tf" type="static_transform_publisher" name="m" '
+                      'args="%s 100"/></launch>' % FRONT_MOUNT)
+    code, out = run(DUAL_MERGER, "--bag", DUAL_BAG, "--tf-launch", str(launch))
+    assert code == 1 and "'rear_scanner' has no tf path" in out, out
+    empty = tmp_path / "empty.launch"
+    empty.write_text("<launch/>")
+    code, out = run(DUAL_MERGER, "--bag", DUAL_BAG, "--tf-launch", str(empty))
+    assert code == 2 and "no static_transform_publisher" in out, out
+
+
+@pytest.mark.parametrize("spec,reason", [
+    ("0 0 0 0 0 base_link laser", "7 words given"),
+    ("0 0 zero 0 0 0 base_link laser", "expected numbers"),
+    ("0 0 0 0 0 nan base_link laser", "finite"),
+    ("0 0 0 0 0 0 2 base_link laser", "not normalized"),
+    ("0 0 0 0 0 0 laser laser", "two different frames")])
+def test_malformed_mount_is_a_usage_error(spec, reason):
+    code, out = run(DUAL_MERGER, "--bag", DUAL_BAG, "--static-tf", spec)
+    assert code == 2 and reason in out, out
+
+
+def test_mounts_alone_form_the_tree():
+    code, out = run(DUAL_MERGER, "--static-tf", FRONT_MOUNT)
+    assert code == 0, out
+    code, out = run(DUAL_MERGER, "--static-tf", "0 0 0 0 0 0 odom base_footprint")
+    assert code == 1 and "output_frame: frame 'base_link' is not in the tf tree" in out, out
+
+
+@pytest.fixture
+def master(tmp_path):
+    """A private roscore with /use_sim_time true; yields the environment that reaches it."""
+    import rosgraph
+    port = free_port()
+    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1",
+               ROS_HOME=str(tmp_path), ROS_LOG_DIR=str(tmp_path / "log"))
+    env.pop("ROS_HOSTNAME", None)
+    procs = [subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL, start_new_session=True)]
+    m = rosgraph.Master("/test", master_uri=env["ROS_MASTER_URI"])
+    deadline = time.time() + 30
+    while True:
+        try:
+            m.setParam("/use_sim_time", True)
+            break
+        except Exception:
+            assert time.time() < deadline and procs[0].poll() is None, "roscore did not start"
+            time.sleep(0.2)
+
+    def start(*cmd):
+        procs.append(subprocess.Popen(list(cmd), env=env, stdout=subprocess.DEVNULL,
+                                      stderr=subprocess.DEVNULL, start_new_session=True))
+    yield env, start
+    for p in reversed(procs):
+        os.killpg(p.pid, signal.SIGINT)
+        try:
+            p.wait(15)
+        except subprocess.TimeoutExpired:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait(5)
+
+
+def test_live_with_sim_time_and_no_clock_times_out_with_advice(master, tmp_path):
+    env, start = master
+    footprint = tmp_path / "footprint.yaml"
+    footprint.write_text("reference_frame: base_footprint\n")
+    t0 = time.time()
+    p = subprocess.run([sys.executable, CHECK, DUAL_MERGER, "--live", "--clock-timeout", "1"],
+                       capture_output=True, text=True, env=env, timeout=60)
+    assert p.returncode == 2, p.stdout + p.stderr
+    assert "/use_sim_time is true but nothing published /clock" in p.stderr
+    assert "rosbag play --clock" in p.stderr
+    assert time.time() - t0 < 30
+    # once a clock runs, the same check listens to tf and finds the frames
+    start("rostopic", "pub", "-r", "20", "/clock", "rosgraph_msgs/Clock", "clock: {secs: 100}")
+    start("rosrun", "tf2_ros", "static_transform_publisher", *FRONT_MOUNT.split())
+    p = subprocess.run([sys.executable, CHECK, DUAL_MERGER, "--live", "--clock-timeout", "20"],
+                       capture_output=True, text=True, env=env, timeout=90)
+    assert p.returncode == 0, p.stdout + p.stderr
+    p = subprocess.run([sys.executable, CHECK, "--live", "--clock-timeout", "20", "--kind",
+                        "converter", str(footprint)],
+                       capture_output=True, text=True, env=env, timeout=90)
+    assert p.returncode == 1 and "'base_footprint' is not in the tf tree" in p.stdout, p.stdout
+
+
+def test_live_without_master_says_so(tmp_path):
+    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % free_port())
+    p = subprocess.run([sys.executable, CHECK, DUAL_MERGER, "--live"], capture_output=True,
+                       text=True, env=env, timeout=60)
+    assert p.returncode == 2 and "no ROS master" in p.stderr, p.stderr
+
+
+def test_launch_fragment_is_included_the_usual_ways(tmp_path):
+    """A user's launch file elsewhere (a path with a space), run from another directory,
+    includes check_config.launch relative to itself ($(dirname)) and through $(find)."""
+    ws = tmp_path / "my ws"
+    (ws / "my_robot" / "launch").mkdir(parents=True)
+    os.symlink(REPO, str(ws / "toolbox"))
+    bad = os.path.join(HERE, "data", "broken_configs", "converter_min_ge_max.yaml")
+    user = ws / "my_robot" / "launch" / "bringup.launch"
+    user.write_text("""<launch>
+  <arg name="config"/>
+  <include file="$(dirname)/../../toolbox/launch/check_config.launch">
+    <arg name="config" value="$(dirname)/../../toolbox/config/dual_lidar_demo/merger.yaml"/>
+    <arg name="name" value="relative"/>
+  </include>
+  <include file="$(find multi_laserscan_merger)/../launch/check_config.launch">
+    <arg name="config" value="$(arg config)"/> <arg name="name" value="found"/>
+  </include>
+</launch>
+""")
+    env = dict(os.environ, ROS_HOME=str(tmp_path), ROS_LOG_DIR=str(tmp_path),
+               ROS_PACKAGE_PATH=REPO, ROS_MASTER_URI="http://127.0.0.1:%d" % free_port())
+    p = subprocess.run(["roslaunch", "--dump-params", str(user), "config:=" + DUAL_MERGER],
+                       capture_output=True, text=True, env=env, timeout=60, cwd="/")
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "/config_check/relative" in p.stdout and "/config_check/found" in p.stdout
+    assert p.stderr.count("merger.yaml: ok") == 2, p.stderr
+    # roslaunch runs the check while parsing, before it starts a master or any node
+    p = subprocess.run(["roslaunch", str(user), "config:=" + bad],
+                       capture_output=True, text=True, env=env, timeout=60, cwd="/")
+    assert p.returncode != 0
+    assert "max_height: must be greater than min_height" in p.stdout + p.stderr
 
 
 def free_port():

@@ -148,6 +148,101 @@ def test_users_bag_without_ground_truth(tmp_path):
     assert {i["topic"] for i in m["inputs"]} == {"/front_scan", "/rear_scan"}
     assert "accuracy" not in r and not r["ground_truth"]
     assert any("nodelet manager" in n for n in r["cpu"])
+    # the scans are plotted: inputs placed by the mounts the launch publishes, merged scan
+    plot = r["scan_plot"]
+    assert plot["topic"] == MERGED and plot["frame"] == "base_link"
+    assert set(plot["scans"]) == {"/front_scan", "/rear_scan", MERGED}
+    assert all(s["mounted"] and s["returns"] > 100 for s in plot["scans"].values()), plot
+    assert plot["scans"]["/rear_scan"]["input"] and not plot["scans"][MERGED]["input"]
+    assert os.path.getsize(os.path.join(out, "scans.png")) > 10000
+    with open(os.path.join(out, "report.md")) as f:
+        assert "(scans.png)" in f.read()
+    # the pipeline's own delay: a merger answers within a few clock ticks of its input
+    assert -0.05 < m["delay_after_input_median_s"] < 0.05, m
+
+
+def rewrite_dual_bag(path, seconds, stamp_of):
+    """The first ``seconds`` of the dual-lidar bag with header stamps stamp_of(bag time,
+    bag start time)."""
+    import rosbag
+    import rospy
+    with rosbag.Bag(DUAL_BAG) as src, rosbag.Bag(path, "w") as dst:
+        t0 = rospy.Time.from_sec(src.get_start_time())
+        for topic, msg, t in src.read_messages(end_time=t0 + rospy.Duration(seconds)):
+            msg.header.stamp = stamp_of(t, t0)
+            dst.write(topic, msg, t)
+    return path
+
+
+def test_stamps_at_the_end_of_ros_time_are_reported_not_a_crash(tmp_path):
+    """Header stamps a few seconds before the end of ROS 1 time (2^32 s): the tool either
+    evaluates (negative latencies explained) or, when a node cannot take such stamps,
+    names the node that died (exit 3); never a traceback."""
+    import rospy
+    bag = rewrite_dual_bag(str(tmp_path / "end_of_time.bag"), 5.0,
+                           lambda t, t0: rospy.Time(2 ** 32 - 8) + (t - t0))
+    code, log = run([os.path.join(SCRIPTS, "evaluate_bag"), bag, "--launch",
+                     os.path.join(REPO, "launch", "dual_lidar_demo.launch"), "--output",
+                     str(tmp_path / "out"), "--rate", "2", "--no-progress"], 300)
+    assert "Traceback" not in log, log
+    assert code in (0, 3), log
+    if code == 3:
+        assert "has died" in log and "logs kept in" in log, log
+    else:
+        assert "negative latencies" in log, log
+
+
+def test_a_node_that_dies_during_playback_is_named(tmp_path):
+    """roslaunch outlives a node that is not required; the evaluation must not pass over
+    its death."""
+    launch = tmp_path / "dies.launch"
+    launch.write_text("""<launch>
+  <include file="%s"/>
+  <node pkg="tf2_ros" type="static_transform_publisher" name="short_lived"
+        args="0 0 0 0 0 0 base_link short_lived" launch-prefix="bash -c 'sleep 3; exit 7' --"/>
+</launch>
+""" % os.path.join(REPO, "launch", "dual_lidar_demo.launch"))
+    code, log = run([os.path.join(SCRIPTS, "evaluate_bag"), DUAL_BAG, "--launch", str(launch),
+                     "--rate", "4", "--no-progress"], 300)
+    assert code == 3, log
+    assert "short_lived" in log and "has died" in log, log
+
+
+def test_users_bag_with_stamps_ahead_of_the_bag_clock(tmp_path):
+    """The dual-lidar bag rewritten with every header stamp 0.5 s ahead of its bag time
+    (a sensor clock ahead of the recorder's): latencies go negative, the report says why,
+    and the delay after input still shows the pipeline's real delay."""
+    import rospy
+    shifted = rewrite_dual_bag(str(tmp_path / "ahead.bag"), 8.0,
+                               lambda t, _t0: t + rospy.Duration(0.5))
+    out = str(tmp_path / "out")
+    code, log = run([os.path.join(SCRIPTS, "evaluate_bag"), shifted, "--launch",
+                     os.path.join(REPO, "launch", "dual_lidar_demo.launch"), "--output", out,
+                     "--rate", "2", "--no-progress"], 300)
+    assert code == 0, log
+    assert "negative latencies" in log
+    with open(os.path.join(out, "results.json")) as f:
+        r = json.load(f)
+    m = r["outputs"][MERGED]
+    assert m["latency_median_s"] < -0.4 and m["negative_latency_fraction"] > 0.9, m
+    assert -0.05 < m["delay_after_input_median_s"] < 0.05, m
+    assert r["inputs"]["/front_scan"]["age_min_s"] == pytest.approx(-0.5, abs=1e-3)
+    with open(os.path.join(out, "report.md")) as f:
+        text = f.read()
+    assert "**Negative latencies.**" in text
+    assert "input `/front_scan`: stamps up to 500.0 ms ahead of the bag time" in text
+
+
+def test_unusable_bags_are_reported(tmp_path):
+    import rosbag
+    empty = str(tmp_path / "empty.bag")
+    rosbag.Bag(empty, "w").close()
+    code, log = run([os.path.join(SCRIPTS, "evaluate_bag"), empty, "--no-progress"], 60)
+    assert code == 2 and "holds no messages" in log and "Traceback" not in log, log
+    garbage = tmp_path / "garbage.bag"
+    garbage.write_bytes(b"#ROSBAG V2.0\n" + b"\x00" * 64)
+    code, log = run([os.path.join(SCRIPTS, "evaluate_bag"), str(garbage), "--no-progress"], 60)
+    assert code == 2 and "Traceback" not in log, log
 
 
 def test_thresholds_decide_the_exit_status():

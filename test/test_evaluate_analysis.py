@@ -78,3 +78,103 @@ def test_ground_truth_stats_in_base_link_and_a_lidar_frame():
     assert lidar["median_error"] < 1e-4 and lidar["false"] == 0
     assert lidar["z_band"] == pytest.approx([0.18, 0.22])
     assert set(ex) == {"/merged", "/lidar"}
+
+
+# ------------------------------------------------ extreme stamps: reported, never a crash
+
+MAX_STAMP = 4294967295.999999999  # ROS 1 time's largest value
+
+
+def test_header_stamp_reads_the_largest_ros_time():
+    import struct
+    raw = struct.pack("<III", 7, 0xFFFFFFFF, 999999999) + b"\x00\x00\x00\x00"
+    assert ev._header_stamp(raw) == pytest.approx(MAX_STAMP, abs=1e-6)
+    assert ev._header_stamp(b"\x00" * 8) is None  # too short for a header
+
+
+def _records(stamps, recv):
+    scans = [{"stamp": s, "frame": "base_link", "angle_min": -1.0, "angle_max": 1.0,
+              "angle_increment": 0.5, "range_min": 0.1, "range_max": 10.0,
+              "ranges": np.array([1.0, np.inf, 2.0, np.nan, 0.05], np.float32)}
+             for s in stamps if s is not None]
+    return {"type": "sensor_msgs/LaserScan", "recv_sim": list(recv),
+            "recv_wall": [1000.0 + r - recv[0] for r in recv], "stamp": list(stamps),
+            "bytes": [100] * len(recv), "scans": scans}
+
+
+def test_extreme_and_missing_stamps_are_reported(tmp_path):
+    """An output whose stamps are far ahead of the bag clock (near the end of ROS time),
+    one from 1970 (an unset stamp), one message without a readable stamp: figures and the
+    report come out, with the negative latencies explained."""
+    from laserscan_toolbox import report
+    bag_t = 1.4839920e9 + np.arange(6) * 0.1
+    inputs = {"/scan_in": {"type": "sensor_msgs/LaserScan", "count": 6, "frequency": 10.0,
+                           "stamps": (MAX_STAMP - 1 + np.arange(6) * 0.1).tolist(), "bytes": 600,
+                           "age": []}}
+    inputs["/scan_in"]["age"] = (bag_t - np.asarray(inputs["/scan_in"]["stamps"])).tolist()
+    bag_info = {"path": "x.bag", "topics": inputs, "start": bag_t[0], "end": bag_t[-1],
+                "size": 1000, "static_tf": []}
+    ahead = inputs["/scan_in"]["stamps"]
+    run = {"records": {"/far": _records(ahead[:4] + [None, 0.0], bag_t + 0.002),
+                       "/dup": _records([5.0, 5.0, 5.0], bag_t[:3])},
+           "cpu": {}, "outputs": {}}
+    stats = ev.output_stats(run, bag_info)
+    far = stats["/far"]
+    assert far["count"] == 6
+    assert far["latency_min_s"] == pytest.approx(bag_t[0] + 0.002 - MAX_STAMP + 1, rel=1e-9)
+    assert far["negative_latency_fraction"] == pytest.approx(4 / 5)  # the 1970 one is late
+    assert [i["topic"] for i in far["inputs"]] == ["/scan_in"]
+    # the pipeline's own delay does not depend on the stamping clock
+    assert far["delay_after_input_median_s"] == pytest.approx(0.002, abs=1e-4)
+    assert math.isnan(stats["/dup"]["rate_hz"])  # one stamp thrice: no rate, no crash
+
+    results = {"bag": "x.bag", "bag_duration_s": 0.5, "bag_size_bytes": 1000,
+               "player": ["rosbag", "play"], "launch": ["roslaunch", "x"],
+               "thresholds": [], "playback_wall_s": 1.0, "cpu": {}, "outputs": stats,
+               "inputs": {"/scan_in": {"type": "sensor_msgs/LaserScan", "count": 6,
+                                       "rate_hz": 10.0, "bytes_per_s": 1.0,
+                                       "age_median_s": float(np.median(inputs["/scan_in"]["age"])),
+                                       "age_min_s": float(np.min(inputs["/scan_in"]["age"]))}}}
+    report.write_report(results, {}, run, str(tmp_path))
+    text = (tmp_path / "report.md").read_text()
+    assert "**Negative latencies.**" in text
+    assert "input `/scan_in`: stamps up to" in text
+    assert "likely cause: stamps ahead of the bag clock" in text
+    assert (tmp_path / "latency.png").stat().st_size > 0
+    assert "negative latencies" in report.summary_text(results)
+    # no note when every latency is positive
+    results["outputs"] = {"/dup": stats["/dup"]}
+    results["inputs"]["/scan_in"]["age_min_s"] = 0.01
+    assert report.stamps_ahead_note(results) == []
+
+
+def test_stale_receive_clock_is_told_apart_from_stamps_ahead():
+    from laserscan_toolbox import report
+    results = {"outputs": {"/m": {"latency_min_s": -0.1, "negative_latency_fraction": 0.003,
+                                  "delay_after_input_median_s": 0.001,
+                                  "delay_after_input_p95_s": 0.004,
+                                  "delay_after_input_min_s": -0.18}},
+               "inputs": {"/in": {"age_min_s": 0.08, "age_median_s": 0.084}}}
+    text = "\n".join(report.stamps_ahead_note(results))
+    assert "likely cause: the receiving clock read stale" in text
+    assert "input `/in`" not in text
+
+
+def test_snapshot_plot_places_inputs_by_their_mounts(tmp_path):
+    from laserscan_toolbox import report
+
+    def scan(ranges, frame, inp, mount):
+        return {"stamp": 10.0, "frame": frame, "input": inp, "angle_min": 0.0,
+                "angle_increment": math.pi / 2, "range_min": 0.1, "range_max": 5.0,
+                "ranges": np.asarray(ranges, np.float32),
+                "mount": None if mount is None else mount.tolist()}
+    flip = np.diag([-1.0, -1.0, 1.0, 1.0])  # a rear lidar turned by pi
+    snap = {"topic": "/merged", "stamp": 10.0, "frame": "base_link", "scans": {
+        "/merged": scan([1, 2, 3, np.inf], "base_link", False, np.eye(4)),
+        "/rear": scan([1, np.nan, 0.05, 9.0], "rear", True, flip),
+        "/odd": scan([1, 1, 1, 1], "elsewhere", True, None)}}
+    x, y = report._scan_points(snap["scans"]["/rear"])
+    assert x.tolist() == pytest.approx([-1.0]) and y.tolist() == pytest.approx([0.0], abs=1e-9)
+    path = report.plot_snapshot(snap, str(tmp_path / "scans.png"))
+    import matplotlib.image as mpimg
+    assert mpimg.imread(path).shape[1] > 3 * mpimg.imread(path).shape[0] * 0.8  # three panels

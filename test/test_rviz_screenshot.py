@@ -1,9 +1,12 @@
-"""rviz starts with config/rviz/pipeline.rviz under Xvfb and draws the scans it is fed.
+"""rviz starts under Xvfb and draws the scans it is fed.
 
-The test starts its own roscore, publishes tf (odom -> base_link) and one scan or cloud on
-every topic the rviz config shows (each a ring at its own radius), takes a screenshot with
-imagemagick and checks that the picture is not blank and that the enabled scan displays'
-colours are on it. Set RVIZ_SCREENSHOT_OUT to keep the picture.
+The first test starts its own roscore, publishes tf (odom -> base_link) and one scan or cloud
+on every topic config/rviz/pipeline.rviz shows (each a ring at its own radius), takes a
+screenshot with imagemagick and checks that the picture is not blank and that the enabled
+scan displays' colours are on it. The second is a user's case: a real bag with other frames
+and topics (test/data/real/dual_lidar_scans_demo.bag through launch/dual_lidar_demo.launch),
+shown by launch/rviz.launch given that robot's fixed frame and topics. Set
+RVIZ_SCREENSHOT_OUT to keep the first picture.
 """
 import math
 import os
@@ -18,6 +21,11 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(REPO, "scripts"))
 CONFIG = os.path.join(REPO, "config", "rviz", "pipeline.rviz")
+DUAL_BAG = os.path.join(HERE, "data", "real", "dual_lidar_scans_demo.bag")
+DUAL_LAUNCH = os.path.join(REPO, "launch", "dual_lidar_demo.launch")
+# the dual-lidar robot: no odometry, so its base frame is the fixed frame
+USER_VIEW = {"fixed_frame": "base_link", "robot_frame": "base_link",
+             "scans": ["/front_scan", "/rear_scan"], "merged": ["/merged_scan"], "clouds": []}
 
 
 def publish(config):
@@ -92,6 +100,76 @@ def test_rviz_draws_the_pipeline(tmp_path):
     assert st["std"] > 10, "the screenshot is blank"
     for c, n in st["counts"].items():
         assert n > 200, "display colour %s barely on screen (%d pixels): %s" % (c, n, st)
+
+
+def test_generated_view_of_the_simulated_robot_is_the_shipped_one(tmp_path):
+    """rviz.launch's defaults write what config/rviz/pipeline.rviz shows (enabled displays)."""
+    from laserscan_toolbox import rviz_config as rc
+    from laserscan_toolbox.rviz_shot import displays
+    path = rc.write_config(rc.make_config(**rc.SIM_VIEW), str(tmp_path / "sim.rviz"))
+    assert sorted(displays(path)) == sorted(d for d in displays(CONFIG) if d[3])
+    path = rc.write_config(rc.make_config(**USER_VIEW), str(tmp_path / "user.rviz"))
+    assert [d[1] for d in displays(path)] == ["/front_scan", "/rear_scan", "/merged_scan"]
+    assert len({d[2] for d in displays(path)}) == 3  # a colour each
+    with open(path) as f:
+        text = f.read()
+    assert "Fixed Frame: base_link" in text and "odom" not in text
+    assert rc.rviz_command(["/usr/bin/rviz", "-d", "old.rviz", "__name:=rviz"], path, "base_link") \
+        == ["/usr/bin/rviz", "-d", path, "-f", "base_link", "__name:=rviz"]
+    assert rc.topic_list(["/a /b,/c", "none", ""]) == ["/a", "/b", "/c"]
+    with pytest.raises(ValueError):
+        rc.make_config("", "base_link", [], [], [])
+
+
+def test_command_lines(tmp_path):
+    tools = os.path.join(REPO, "scripts")
+
+    def run(*args):
+        return subprocess.run([sys.executable] + list(args), capture_output=True, text=True,
+                              timeout=60)
+    out = tmp_path / "mine.rviz"
+    p = run(os.path.join(tools, "rviz_config"), "--fixed-frame", "map", "--scans", "/a,/b",
+            "--merged", "none", "--clouds", "none", "--output", str(out))
+    assert p.returncode == 0, p.stderr
+    from laserscan_toolbox.rviz_shot import displays
+    assert [d[1] for d in displays(str(out))] == ["/a", "/b"]
+    assert "Fixed Frame: map" in out.read_text()
+    p = run(os.path.join(tools, "rviz_config"), "--template", str(tmp_path / "none.rviz"))
+    assert p.returncode == 2 and "none.rviz" in p.stderr
+    p = run(os.path.join(tools, "rviz_config"), "--fixed-frame", "")
+    assert p.returncode == 2 and "fixed frame" in p.stderr
+    p = run(os.path.join(tools, "rviz_screenshot"), str(tmp_path / "none.bag"))
+    assert p.returncode == 2 and "no such bag" in p.stderr
+    p = run(os.path.join(tools, "rviz_screenshot"), DUAL_BAG, "--play", "0")
+    assert p.returncode == 2
+    p = run(os.path.join(tools, "rviz_screenshot"), "--help")
+    assert p.returncode == 0 and "--fixed-frame" in p.stdout
+
+
+def test_rviz_launch_shows_a_users_bag(tmp_path):
+    """launch/rviz.launch with the dual-lidar robot's fixed frame and topics, while its real
+    bag plays through dual_lidar_demo.launch: no display in error (the panel shows no red
+    error icon) and every scan drawn. The control, the simulated robot's view on the same
+    bag, shows errors and no input scan: the check can fail."""
+    for tool in ("xvfb-run", "rviz", "import", "roscore"):
+        assert shutil.which(tool), "%s is missing (Debian packages xvfb, rviz, imagemagick)" % tool
+    from laserscan_toolbox import rviz_config as rc
+    from laserscan_toolbox.rviz_shot import (bag_screenshot, displays, error_icons, image_stats,
+                                             rviz_launch_command)
+    user_config = rc.write_config(rc.make_config(**USER_VIEW), str(tmp_path / "user.rviz"))
+    colours = [c for _, _, c, _ in displays(user_config)]
+    shot = bag_screenshot(DUAL_BAG, DUAL_LAUNCH, None, str(tmp_path / "user.png"), start=5.0,
+                          workdir=str(tmp_path / "user"), command=rviz_launch_command(USER_VIEW))
+    st = image_stats(shot, colours)
+    assert error_icons(shot) == [], "rviz reports an error: %s" % shot
+    for c, n in st["counts"].items():
+        assert n > 200, "display colour %s barely on screen (%d pixels): %s" % (c, n, st)
+
+    control = bag_screenshot(DUAL_BAG, DUAL_LAUNCH, CONFIG, str(tmp_path / "sim_view.png"),
+                             start=5.0, workdir=str(tmp_path / "control"))
+    assert len(error_icons(control)) >= 2  # Global Status and the merged scan's display
+    inputs = image_stats(control, colours[:2])["counts"]
+    assert all(n < 100 for n in inputs.values()), inputs
 
 
 if __name__ == "__main__" and sys.argv[1:2] == ["--publish"]:

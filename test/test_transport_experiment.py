@@ -57,8 +57,13 @@ def test_tree_lists_descendants_only(tree):
 
 def test_cpu_delta_counts_the_window_of_every_process(tree):
     procs = te.tree_processes(tree.pid, include_root=True)
+    # Both processes must have spent CPU before the window opens: under load a freshly
+    # started process may not have run a whole clock tick yet, and then "the window only"
+    # (below) could not be told from "the whole life".
+    _busy_until(procs, 0.05)
     before = te.cpu_snapshot(procs)
     assert len(before) == 2
+    assert all(c > 0 for _, c in before.values())
     _busy_until(procs, 0.05)
     after = te.cpu_snapshot(procs)
     d = te.cpu_delta(before, after)
@@ -66,7 +71,9 @@ def test_cpu_delta_counts_the_window_of_every_process(tree):
     assert "worker[%d]" % procs[1].pid in d["per_process"]  # named from __name:=
     assert all(v >= 0.05 for v in d["per_process"].values())
     assert d["total_s"] == pytest.approx(sum(d["per_process"].values()))
-    # the window only: less than the processes' whole CPU since start
+    # the window only: the processes' whole CPU since start less what they spent before it
+    assert d["total_s"] == pytest.approx(sum(c for _, c in after.values())
+                                         - sum(c for _, c in before.values()))
     assert d["total_s"] < sum(c for _, c in after.values())
     assert d["lost"] == []
     assert d["loader_s"] == 0.0

@@ -353,7 +353,8 @@ def check_data(data, kind=None, tf_tree=None, topic_frames=None):
                     known = sorted(tf_tree.frames())
                     problems.append("%s: frame '%s' is not in the tf tree (%s)" % (
                         path, frame, "frames: " + ", ".join(known[:12]) if known
-                        else "the tree is empty: no /tf or /tf_static"))
+                        else "the tree is empty: no /tf or /tf_static; give the sensor "
+                        "mounts with --static-tf or --tf-launch"))
             if k == "merger" and topic_frames is not None:
                 out_frame = params.get("output_frame", "base_link")
                 for path, topic in topics_of(prefix, k, params):
@@ -432,19 +433,100 @@ def tf_tree_from_bag(path, max_header_messages=1):
     return tree, topic_frames
 
 
-def tf_tree_live(wait=2.0):
-    """TfTree of a running system (listens to tf for ``wait`` seconds)."""
+def tf_tree_live(wait=2.0, clock_timeout=5.0):
+    """TfTree of a running system (listens to tf for ``wait`` seconds of wall time).
+
+    Raises UsageError when there is no master, or when /use_sim_time is true and no /clock
+    arrives within ``clock_timeout`` s (rospy would otherwise wait for it forever)."""
+    import time
+
+    import rosgraph
+    if not rosgraph.is_master_online():
+        raise UsageError("--live: no ROS master at %s: start the robot (or roscore) first, "
+                         "or set ROS_MASTER_URI to the robot's master"
+                         % rosgraph.get_master_uri())
     import rospy
     import tf2_ros
     rospy.init_node("check_config", anonymous=True, disable_signals=True)
+    if rospy.get_param("/use_sim_time", False):
+        deadline = time.monotonic() + clock_timeout
+        while rospy.Time.now().is_zero():
+            if time.monotonic() > deadline:
+                raise UsageError(
+                    "--live: /use_sim_time is true but nothing published /clock within %g s. "
+                    "Start what provides the simulated clock (e.g. `rosbag play --clock BAG` "
+                    "or the simulator), or, if the robot runs on wall time, "
+                    "`rosparam set /use_sim_time false` before starting its nodes"
+                    % clock_timeout)
+            time.sleep(0.05)
     buf = tf2_ros.Buffer()
     tf2_ros.TransformListener(buf)
-    rospy.sleep(wait)
+    time.sleep(wait)  # wall time: a paused or slow simulated clock must not stretch it
     frames = yaml.safe_load(buf.all_frames_as_yaml()) or {}
     tree = TfTree()
     for child, info in frames.items():
         tree.add(info.get("parent", ""), child)
     return tree
+
+
+def _numbers(tokens, what):
+    try:
+        values = [float(t) for t in tokens]
+    except ValueError:
+        raise UsageError("%s: expected numbers before the frames, got %s"
+                         % (what, " ".join(tokens))) from None
+    if not all(math.isfinite(v) for v in values):
+        raise UsageError("%s: the pose must be finite" % what)
+    return values
+
+
+def static_tf_edge(spec, what=None, trailing_period=False):
+    """(parent, child) of a mount written like static_transform_publisher's arguments:
+    "x y z yaw pitch roll parent child" or "x y z qx qy qz qw parent child".
+    trailing_period: the tf (not tf2_ros) publisher's last argument, a period in ms."""
+    what = what or "--static-tf '%s'" % spec
+    tokens = spec.split() if isinstance(spec, str) else list(spec)
+    if trailing_period and tokens:
+        _numbers(tokens[-1:], what)
+        tokens = tokens[:-1]
+    if len(tokens) not in (8, 9):
+        raise UsageError("%s: expected 'x y z yaw pitch roll parent child' or "
+                         "'x y z qx qy qz qw parent child' (%d words given)"
+                         % (what, len(tokens)))
+    pose = _numbers(tokens[:-2], what)
+    if len(pose) == 7 and not math.isclose(sum(q * q for q in pose[3:]), 1.0, abs_tol=1e-3):
+        raise UsageError("%s: the quaternion is not normalized" % what)
+    parent, child = (t.lstrip("/") for t in tokens[-2:])
+    if not parent or not child or parent == child:
+        raise UsageError("%s: parent and child must be two different frames" % what)
+    return parent, child
+
+
+STATIC_TF_NODES = {("tf2_ros", "static_transform_publisher"): False,
+                   ("tf", "static_transform_publisher"): True}  # True: has a period argument
+
+
+def static_tf_edges_from_launch(path):
+    """(parent, child) of every static_transform_publisher node a launch file starts
+    (its includes and default arguments resolved as roslaunch does)."""
+    import roslaunch.config
+    import roslaunch.xmlloader
+    if not os.path.isfile(path):
+        raise UsageError("%s: no such launch file" % path)
+    config = roslaunch.config.ROSLaunchConfig()
+    try:
+        roslaunch.xmlloader.XmlLoader().load(path, config, verbose=False, argv=["check_config"])
+    except Exception as e:  # roslaunch raises several types for a bad or unresolved file
+        raise UsageError("--tf-launch %s: cannot load it: %s" % (path, e)) from None
+    edges = []
+    for node in config.nodes:
+        period = STATIC_TF_NODES.get((node.package, node.type))
+        if period is not None:
+            edges.append(static_tf_edge(node.args, "--tf-launch %s: node %s" % (path, node.name),
+                                        trailing_period=period))
+    if not edges:
+        raise UsageError("--tf-launch %s: it starts no static_transform_publisher" % path)
+    return edges
 
 
 def main(argv=None):
@@ -463,6 +545,19 @@ def main(argv=None):
                                  "/tf and /tf_static")
     g.add_argument("--live", action="store_true",
                    help="check frames against the tf tree of the running system")
+    p.add_argument("--static-tf", action="append", default=[], metavar="'X Y Z YAW PITCH ROLL "
+                   "PARENT CHILD'", help="a sensor mount the bag or system lacks, written as "
+                   "static_transform_publisher's arguments (also X Y Z QX QY QZ QW PARENT "
+                   "CHILD); repeat it for each mount. Alone, frames are checked against "
+                   "these mounts only")
+    p.add_argument("--tf-launch", action="append", default=[], metavar="LAUNCH",
+                   help="take the mounts from the static_transform_publisher nodes of this "
+                        "launch file (its default arguments); may be repeated")
+    p.add_argument("--listen", type=float, default=2.0, metavar="S",
+                   help="--live: seconds of listening to tf (default 2)")
+    p.add_argument("--clock-timeout", type=float, default=5.0, metavar="S",
+                   help="--live with /use_sim_time true: give up when no /clock arrives "
+                        "within S seconds (default 5)")
     p.add_argument("--stderr", action="store_true",
                    help="print problems on stderr (used from launch files, whose "
                         "<param command=...> keeps stdout)")
@@ -473,11 +568,20 @@ def main(argv=None):
         return 2 if e.code else 0
     out = sys.stderr if args.stderr else sys.stdout
     try:
+        if not (args.listen > 0 and args.clock_timeout > 0):
+            raise UsageError("--listen and --clock-timeout must be > 0 seconds")
+        mounts = [static_tf_edge(spec) for spec in args.static_tf]
+        for launch in args.tf_launch:
+            mounts += static_tf_edges_from_launch(launch)
         tree = topic_frames = None
         if args.bag:
             tree, topic_frames = tf_tree_from_bag(args.bag)
         elif args.live:
-            tree = tf_tree_live()
+            tree = tf_tree_live(args.listen, args.clock_timeout)
+        elif mounts:
+            tree = TfTree()
+        for parent, child in mounts:
+            tree.add(parent, child)
         bad = False
         for f in args.files:
             problems = check_file(f, args.kind, tree, topic_frames)

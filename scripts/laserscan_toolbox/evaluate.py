@@ -32,6 +32,11 @@ DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
 GROUND_TRUTH_TOPIC = "/scenario"
 SKIP_TOPICS = {"/rosout", "/rosout_agg", "/clock", "/tf", "/tf_static", "/diagnostics"}
 BASE_FRAME = "base_link"
+MAX_STAMP = 4294967295.999999999  # ROS 1 time: unsigned 32-bit seconds
+
+
+class BagError(Exception):
+    """The bag cannot be evaluated (empty, unindexed, unreadable)."""
 
 
 # ---------------------------------------------------------------- bag inspection
@@ -50,8 +55,17 @@ def inspect_bag(path, stamps=True):
     if not os.path.isfile(path):
         raise FileNotFoundError("%s: no such bag" % path)
     info = {"path": os.path.abspath(path), "topics": {}, "static_tf": []}
-    with rosbag.Bag(path) as bag:
+    try:
+        bag = rosbag.Bag(path)
+    except rosbag.ROSBagUnindexedException:
+        raise BagError("%s: the bag is not indexed (a recording that was cut off): "
+                       "run `rosbag reindex %s` first" % (path, path)) from None
+    except (rosbag.ROSBagException, OSError) as e:
+        raise BagError("%s: cannot read the bag: %s" % (path, e)) from None
+    with bag:
         ti = bag.get_type_and_topic_info().topics
+        if not ti or bag.get_message_count() == 0:
+            raise BagError("%s: the bag holds no messages" % path)
         info["start"] = bag.get_start_time()
         info["end"] = bag.get_end_time()
         info["size"] = os.path.getsize(path)
@@ -112,10 +126,23 @@ class Recorder:
     def __init__(self, topics):
         import rospy
         from sensor_msgs.msg import LaserScan
+        from tf2_msgs.msg import TFMessage
         self._scan_cls = LaserScan
         self.data = {}
         self.subs = []
         self.add(topics)
+        # the mounts the launch publishes (a bag without tf gets them there): for plots.
+        # Not in self.subs, whose connections wait_connected awaits: there may be none.
+        self.static_tf = {}
+        self._tf_sub = rospy.Subscriber("/tf_static", TFMessage, self._static_cb, queue_size=10)
+
+    def _static_cb(self, msg):
+        for tr in msg.transforms:
+            q = tr.transform.rotation
+            p = tr.transform.translation
+            self.static_tf[tr.child_frame_id.lstrip("/")] = (
+                tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"),
+                (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
 
     def add(self, topics):
         import rospy
@@ -147,7 +174,7 @@ class Recorder:
                                "ranges": np.asarray(m.ranges, np.float32)})
 
     def close(self):
-        for s in self.subs:
+        for s in self.subs + [self._tf_sub]:
             s.unregister()
 
 
@@ -241,12 +268,14 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
             c["cpu_percent_wall"] = c["cpu_percent"]
             c["cpu_percent"] = 100.0 * c["cpu_seconds"] / data_s
         rec.close()
-        if launch.proc.poll() is not None:
-            died = [l for l in open(launch.log_path, errors="replace")
-                    if "has died" in l or "terminate called" in l or "what()" in l]
+        # roslaunch outlives a node that is not required: its log says whether one died
+        with open(launch.log_path, errors="replace") as f:
+            died = [l for l in f if "has died" in l or "terminate called" in l or "what()" in l]
+        if launch.proc.poll() is not None or died:
             raise RunError("the pipeline stopped during playback:\n%s%s"
                            % ("".join(died), _tail(launch.log_path)))
         return {"outputs": outputs, "publishers": pubs, "records": rec.data, "cpu": cpu_res,
+                "static_tf": list(rec.static_tf.values()),
                 "consumer_cpu_percent": 100.0 * own_cpu / data_s,
                 "wall": wall, "launch": launch.cmd, "player": player.cmd}
     finally:
@@ -296,6 +325,11 @@ def _wait_playback(player, bag_info, progress, label, poll=None):
 
 # ---------------------------------------------------------------- analysis
 
+def _stamp_key(stamps):
+    """Stamps (s) as whole microseconds, the key under which stamps are matched."""
+    return np.round(np.asarray(stamps, float) * 1e6).astype(np.int64)
+
+
 def match_inputs(out_stamps, bag_topics, min_matches=3):
     """Input topics whose header stamps reappear on an output, and how many did not.
 
@@ -303,14 +337,14 @@ def match_inputs(out_stamps, bag_topics, min_matches=3):
     merger with publish_rate 0 stamps each output with an input's time, so an input
     message whose stamp never shows up on the output was dropped on the way.
     """
-    out = set(np.round(np.asarray(out_stamps, float) * 1e6).astype(np.int64).tolist())
+    out = set(_stamp_key(out_stamps).tolist())
     drivers = []
     seen = []  # a camera's image and camera_info share their stamps: count the frame once
     for topic, info in sorted(bag_topics.items()):
         st = info.get("stamps") or []
         if not st or topic in SKIP_TOPICS:
             continue
-        s = set(np.round(np.asarray(st) * 1e6).astype(np.int64).tolist())
+        s = set(_stamp_key(st).tolist())
         if s in seen:
             continue
         seen.append(s)
@@ -320,15 +354,35 @@ def match_inputs(out_stamps, bag_topics, min_matches=3):
     return drivers
 
 
+def delay_after_input(recv_sim, stamps, drivers, bag_topics):
+    """Receipt time of each output minus the bag time of the input message that carries the
+    same stamp: the pipeline's own delay, whatever clock stamped the input (a sensor clock
+    ahead of the recorder's makes stamp-based latencies negative, not this)."""
+    played = {}
+    for drv in drivers:
+        info = bag_topics[drv["topic"]]
+        bag_t = np.asarray(info["stamps"], float) + np.asarray(info["age"], float)
+        for key, t in zip(_stamp_key(info["stamps"]).tolist(), bag_t.tolist()):
+            played[key] = max(played.get(key, t), t)
+    recv, sent = [], []
+    for r, key in zip(recv_sim, _stamp_key(stamps).tolist()):
+        if key in played:
+            recv.append(r)
+            sent.append(played[key])
+    return metrics.latency_stats(recv, sent)
+
+
 def output_stats(run, bag_info):
     stats = {}
     for topic, d in run["records"].items():
-        stamps = [s for s in d["stamp"] if s is not None]
+        pairs = [(r, s) for r, s in zip(d["recv_sim"], d["stamp"]) if s is not None]
+        recv = [r for r, _ in pairs]
+        stamps = [s for _, s in pairs]
         rs = metrics.rate_stats(stamps)
-        lat = metrics.latency_stats(d["recv_sim"][:len(stamps)], stamps) if stamps else \
-            metrics.latency_stats([], [])
+        lat = metrics.latency_stats(recv, stamps)
         span = (max(d["recv_wall"]) - min(d["recv_wall"])) if len(d["recv_wall"]) > 1 else 0
         drivers = match_inputs(stamps, bag_info["topics"])
+        delay = delay_after_input(recv, stamps, drivers, bag_info["topics"])
         dropped = sum(x["dropped"] for x in drivers)
         inputs = sum(x["inputs"] for x in drivers)
         bag_span = bag_info["end"] - bag_info["start"]
@@ -336,6 +390,9 @@ def output_stats(run, bag_info):
             "type": d["type"], "count": len(d["stamp"]), "rate_hz": rs["rate"],
             "max_gap_s": rs["max_gap"], "latency_median_s": lat["median"],
             "latency_p95_s": lat["p95"], "latency_max_s": lat["max"],
+            "latency_min_s": lat["min"], "negative_latency_fraction": lat["negative_fraction"],
+            "delay_after_input_median_s": delay["median"],
+            "delay_after_input_p95_s": delay["p95"], "delay_after_input_min_s": delay["min"],
             "bytes_per_msg": float(np.mean(d["bytes"])) if d["bytes"] else 0.0,
             "bytes_per_s": float(np.sum(d["bytes"]) / bag_span) if bag_span > 0 else float("nan"),
             "inputs": drivers, "dropped": dropped,
@@ -353,18 +410,56 @@ def _coverage(scans):
     return float(np.mean(metrics.is_return(r)))
 
 
-def bag_scans(path, topics):
-    """LaserScans of the bag (the pipeline's inputs) in the recorder's layout."""
+def bag_scans(path, topics, start=None, end=None):
+    """LaserScans of the bag (the pipeline's inputs) in the recorder's layout; only those
+    recorded between bag times ``start`` and ``end`` (s) when given."""
     import rosbag
+    import rospy
     out = {t: {"scans": []} for t in topics}
+    window = {k: rospy.Time.from_sec(min(max(v, 0.0), MAX_STAMP)) for k, v in
+              (("start_time", start), ("end_time", end)) if v is not None}
     with rosbag.Bag(path) as bag:
-        for topic, m, _ in bag.read_messages(topics=list(topics)):
+        for topic, m, _ in bag.read_messages(topics=list(topics), **window):
             out[topic]["scans"].append({
                 "stamp": m.header.stamp.to_sec(), "frame": m.header.frame_id,
                 "angle_min": m.angle_min, "angle_max": m.angle_max,
                 "angle_increment": m.angle_increment, "range_min": m.range_min,
                 "range_max": m.range_max, "ranges": np.asarray(m.ranges, np.float32)})
     return out
+
+
+def scan_snapshot(bag, bag_info, run, topic=None, window=1.0):
+    """One moment of a bag without ground truth, for a plot: the middle scan of ``topic``
+    (default: the merged scan, else the first recorded scan topic) and, for every other
+    recorded output and every LaserScan of the bag, the scan nearest to it in stamp, each
+    with its frame's mount in the reference scan's frame (4x4; None when tf does not say).
+    Returns None when nothing was recorded."""
+    recs = {t: d for t, d in run["records"].items() if d.get("scans")}
+    if not recs:
+        return None
+    if topic not in recs:
+        topic = "/merged_scan" if "/merged_scan" in recs else sorted(recs)[0]
+    ref_rec = recs[topic]
+    i = len(ref_rec["scans"]) // 2
+    ref = ref_rec["scans"][i]
+    played_at = ref_rec["recv_sim"][i]  # bag time: the inputs were played just before
+    inputs = [t for t, v in bag_info["topics"].items()
+              if v["type"] == "sensor_msgs/LaserScan" and t not in recs]
+    found = {t: d["scans"] for t, d in recs.items()}
+    found.update({t: d["scans"] for t, d in bag_scans(
+        bag, inputs, played_at - window, played_at + window).items()})
+    static_tf = list(bag_info["static_tf"]) + list(run.get("static_tf", []))
+    base = ref["frame"].lstrip("/")
+    scans = {}
+    for t, candidates in sorted(found.items()):
+        if not candidates:
+            continue
+        s = min(candidates, key=lambda c: abs(c["stamp"] - ref["stamp"]))
+        frame = s["frame"].lstrip("/")
+        mount = np.eye(4) if frame == base else static_pose_in(static_tf, frame, base)
+        scans[t] = dict(s, input=t in inputs, frame=frame,
+                        mount=None if mount is None else mount.tolist())
+    return {"topic": topic, "stamp": ref["stamp"], "frame": base, "scans": scans}
 
 
 def band_from_configs(config_dir):
@@ -510,7 +605,7 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
     t_start = time.time()
     thresholds = thresholds or {}
     log("inspecting %s" % bag)
-    info = inspect_bag(bag)
+    info = inspect_bag(bag)  # BagError: the caller says why
     scenario = None
     if GROUND_TRUTH_TOPIC in info["topics"]:
         from .scenario import Scenario
@@ -532,7 +627,8 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
                               "rate_hz": metrics.rate_stats(v["stamps"])["rate"]
                               if v["stamps"] else v["frequency"],
                               "bytes_per_s": v["bytes"] / max(info["end"] - info["start"], 1e-9),
-                              "age_median_s": float(np.median(v["age"])) if v["age"] else None}
+                              "age_median_s": float(np.median(v["age"])) if v["age"] else None,
+                              "age_min_s": float(np.min(v["age"])) if v["age"] else None}
                           for t, v in info["topics"].items()},
                "outputs": output_stats(run, info), "cpu": run["cpu"],
                "playback_wall_s": run["wall"], "unrecorded_outputs":
@@ -559,6 +655,16 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
         if output and map_topics:
             results["mapping"] = run_mapping(run, info, scenario, results, map_topics,
                                              os.path.join(output, "maps"), log=log)
+    elif output and plots:
+        run["snapshot"] = scan_snapshot(bag, info, run)
+        if run["snapshot"]:
+            results["scan_plot"] = {
+                "topic": run["snapshot"]["topic"], "stamp": run["snapshot"]["stamp"],
+                "frame": run["snapshot"]["frame"],
+                "scans": {t: {"frame": v["frame"], "input": v["input"],
+                              "mounted": v["mount"] is not None,
+                              "returns": int(np.count_nonzero(metrics.is_return(v["ranges"])))}
+                          for t, v in run["snapshot"]["scans"].items()}}
     topics = threshold_topics or _default_threshold_topics(results)
     checks = check_thresholds(results, thresholds, topics)
     results["thresholds"] = [{"ok": ok, "check": text} for ok, text in checks]
@@ -639,9 +745,11 @@ def save_scan_records(run, path):
         if not scans:
             continue
         n = len(scans[0]["ranges"])
-        scans = [s for s in scans if len(s["ranges"]) == n]
+        keep = [i for i, s in enumerate(scans) if len(s["ranges"]) == n]
+        scans = [scans[i] for i in keep]
         key = topic.strip("/").replace("/", "__")
         arrays[key + "/stamp"] = np.array([s["stamp"] for s in scans])
+        arrays[key + "/recv_sim"] = np.asarray(d["recv_sim"], float)[keep]
         arrays[key + "/ranges"] = np.stack([s["ranges"] for s in scans])
         for f in ("angle_min", "angle_increment", "range_min", "range_max"):
             arrays[key + "/" + f] = np.float64(scans[0][f])
@@ -682,7 +790,7 @@ def main(argv=None):
                     "rosbag play --clock) and report rate, latency, CPU, dropped messages and, "
                     "when the bag carries the scenario's ground truth, range error and "
                     "false / missed obstacles per scan topic. Exit status: 0 all thresholds "
-                    "met, 1 a threshold not met, 2 usage error or missing file, 3 the "
+                    "met, 1 a threshold not met, 2 usage error, missing file or unusable bag, 3 the "
                     "pipeline could not be run.")
     p.add_argument("bag")
     p.add_argument("--launch", default=DEFAULT_LAUNCH,
@@ -742,6 +850,9 @@ def main(argv=None):
                        a.max_scans, plots=not a.no_plots,
                        log=lambda m: print(m, file=sys.stderr), map_topics=a.map_topics,
                        save_scans=a.save_scans, rel_tol=a.relative_tolerance)
+    except BagError as e:
+        print("evaluate_bag: %s" % e, file=sys.stderr)
+        return 2
     except RunError as e:
         print("evaluate_bag: %s" % e, file=sys.stderr)
         return 3

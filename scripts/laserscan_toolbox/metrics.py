@@ -167,11 +167,17 @@ def rate_stats(stamps):
 
 
 def latency_stats(receive_times, stamps):
-    d = np.asarray(receive_times, float) - np.asarray(stamps, float)
+    """Receipt time minus stamp (s): median, p95, min, max, and the fraction below zero
+    (stamps ahead of the receiving clock). Pairs with a missing value are left out."""
+    with np.errstate(invalid="ignore"):
+        d = np.asarray(receive_times, float) - np.asarray(stamps, float)
+    d = d[np.isfinite(d)]
     if d.size == 0:
-        return {"median": float("nan"), "p95": float("nan"), "max": float("nan")}
+        return {"median": float("nan"), "p95": float("nan"), "max": float("nan"),
+                "min": float("nan"), "negative_fraction": float("nan")}
     return {"median": float(np.median(d)), "p95": float(np.percentile(d, 95)),
-            "max": float(np.max(d))}
+            "max": float(np.max(d)), "min": float(np.min(d)),
+            "negative_fraction": float(np.mean(d < 0))}
 
 
 def grid_iou(a, b, region=None):

@@ -30,11 +30,57 @@ def outputs_table(results):
     for t, o in sorted(results["outputs"].items()):
         ins = ", ".join("%s %d/%d" % (i["topic"], i["matched"], i["inputs"]) for i in o["inputs"])
         rows.append([t, o["count"], fmt(o["rate_hz"]), fmt(o["latency_median_s"], 1000),
-                     fmt(o["latency_p95_s"], 1000), fmt(o["bytes_per_s"], 1e-3),
+                     fmt(o["latency_p95_s"], 1000),
+                     "%s / %s" % (fmt(o.get("delay_after_input_median_s"), 1000),
+                                  fmt(o.get("delay_after_input_p95_s"), 1000)),
+                     fmt(o["bytes_per_s"], 1e-3),
                      "%d (%s)" % (o["dropped"], fmt(o["dropped_fraction"], 100)) if o["inputs"]
                      else "n/a", ins or "n/a", fmt(o["coverage"], 100)])
     return table(["output", "messages", "rate Hz", "latency median ms", "latency p95 ms",
-                  "kB/s", "dropped (%)", "inputs matched by stamp", "coverage %"], rows)
+                  "delay after input median / p95 ms", "kB/s", "dropped (%)",
+                  "inputs matched by stamp", "coverage %"], rows)
+
+
+def stamps_ahead_note(results):
+    """Markdown lines explaining negative latencies, or [] when there are none. Latency is
+    receipt on the bag clock minus the stamp; below zero, either the stamps are ahead of
+    the bag's clock, or a node stamps its output later than its inputs, or the receipt was
+    timed with a stale /clock (measurement)."""
+    outs = [(t, o) for t, o in sorted(results["outputs"].items())
+            if (o.get("latency_min_s") or 0) < 0]
+    ahead = [(t, v["age_min_s"], v.get("age_median_s")) for t, v in
+             sorted(results["inputs"].items()) if (v.get("age_min_s") or 0) < 0]
+    if not outs and not ahead:
+        return []
+    lines = ["**Negative latencies.** Latency is the time of receipt on the bag clock (the "
+             "time each message was recorded, replayed by `rosbag play --clock`) minus the "
+             "header stamp, and the pipeline's outputs carry their inputs' stamps. It goes "
+             "below zero when a stamp is ahead of the bag's clock: a sensor or driver whose "
+             "clock runs ahead of the recording machine's (no time sync between machines), "
+             "a driver that stamps the end of a sweep or a predicted time, a bag whose stamps "
+             "were rewritten; then every latency is short by that offset. That is not a "
+             "pipeline fault. The pipeline's own delay is \"delay after input\": receipt "
+             "minus the bag time at which the input with the same stamp was played, which "
+             "does not depend on the stamping clock. If that is below zero too, the receipt "
+             "was timed with a stale simulated clock (the recorder reads `/clock`, which "
+             "`rosbag play` publishes at 200 Hz; on a busy machine it arrives late): a "
+             "measurement error of that size, not data from the future.", ""]
+    for t, age_min, age_median in ahead:
+        lines.append("- input `%s`: stamps up to %s ms ahead of the bag time (median age "
+                     "%s ms)." % (t, fmt(-age_min, 1000), fmt(age_median, 1000)))
+    for t, o in outs:
+        d_min = o.get("delay_after_input_min_s")
+        cause = ("stamps ahead of the bag clock" if ahead else
+                 "the receiving clock read stale (delay after input below zero too)"
+                 if d_min is not None and d_min < 0 else
+                 "output stamped later than its inputs' stamps, or inputs not in the bag")
+        lines.append("- `%s`: %s %% of the messages below zero, minimum %s ms; delay after "
+                     "input median %s ms, p95 %s ms, minimum %s ms; likely cause: %s." % (
+                         t, fmt(o.get("negative_latency_fraction"), 100, 2),
+                         fmt(o["latency_min_s"], 1000), fmt(o.get("delay_after_input_median_s"),
+                                                             1000),
+                         fmt(o.get("delay_after_input_p95_s"), 1000), fmt(d_min, 1000), cause))
+    return lines + [""]
 
 
 def cpu_table(results):
@@ -76,8 +122,10 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
         lines.append("No thresholds given.")
     lines += ["", "## Outputs", "",
               "Rate from the stamps; latency = time of receipt (bag clock) minus stamp; "
-              "an input is dropped when its stamp never reappears on the output.", "",
-              outputs_table(results), "", "## CPU", "",
+              "delay after input = time of receipt minus the bag time of the input that "
+              "carries the same stamp; an input is dropped when its stamp never reappears "
+              "on the output.", "",
+              outputs_table(results), ""] + stamps_ahead_note(results) + ["## CPU", "",
               "CPU seconds per second of bag data, in percent of one core (the measuring "
               "window, %.1f s of wall time, also holds rosbag's start delay and the last "
               "outputs)." % results["playback_wall_s"], "",
@@ -129,13 +177,27 @@ def make_plots(results, examples, run, outdir):
     scan_topics = [t for t, d in recs.items() if d["type"] == "sensor_msgs/LaserScan" and d["stamp"]]
     if scan_topics:
         fig, ax = plt.subplots(figsize=(7, 3.5))
+        shown = []
         for t in sorted(scan_topics):
             d = recs[t]
-            lat = np.asarray(d["recv_sim"]) - np.asarray([s or np.nan for s in d["stamp"]])
+            lat = np.asarray(d["recv_sim"], float) - np.asarray(
+                [np.nan if s is None else s for s in d["stamp"]], float)
             ax.plot(np.asarray(d["recv_sim"]) - min(d["recv_sim"]), lat * 1000, ".", ms=2, label=t)
+            shown.append(lat[np.isfinite(lat)] * 1000)
+        shown = np.concatenate(shown) if shown else np.zeros(0)
+        title = "Latency of each output"
+        if shown.size:
+            # a few extreme stamps (e.g. unset or far-off clocks) must not flatten the rest
+            lo, hi = np.percentile(shown, [1, 99])
+            pad = max(0.1 * (hi - lo), 1.0)
+            ax.set_ylim(lo - pad, hi + pad)
+            outside = int(np.count_nonzero((shown < lo - pad) | (shown > hi + pad)))
+            if outside:
+                title += " (%d beyond the axis: min %.4g, max %.4g ms)" % (
+                    outside, shown.min(), shown.max())
         ax.set_xlabel("bag time, s")
         ax.set_ylabel("latency, ms")
-        ax.set_title("Latency of each output")
+        ax.set_title(title, fontsize=9)
         ax.legend(fontsize=6, markerscale=4)
         fig.tight_layout()
         fig.savefig(os.path.join(outdir, "latency.png"), dpi=90)
@@ -151,6 +213,9 @@ def make_plots(results, examples, run, outdir):
         fig.savefig(os.path.join(outdir, "cpu.png"), dpi=90)
         plt.close(fig)
         files["cpu"] = "cpu.png"
+    if run.get("snapshot"):
+        plot_snapshot(run["snapshot"], os.path.join(outdir, "scans.png"))
+        files["inputs and outputs at one moment"] = "scans.png"
     if examples:
         n = len(examples)
         fig, axes = plt.subplots(1, n, figsize=(3.3 * n, 3.5), squeeze=False)
@@ -176,12 +241,72 @@ def make_plots(results, examples, run, outdir):
     return files
 
 
+def _scan_points(scan):
+    """x, y (m) of a scan's returns in the snapshot's reference frame."""
+    r = np.asarray(scan["ranges"], float)
+    a = scan["angle_min"] + scan["angle_increment"] * np.arange(r.size)
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(r) & (r >= scan["range_min"]) & (r <= scan["range_max"]) & (r > 0)
+    pts = np.stack([r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok]), np.zeros(ok.sum()),
+                    np.ones(ok.sum())])
+    if scan.get("mount") is not None:
+        pts = np.asarray(scan["mount"], float) @ pts
+    return pts[0], pts[1]
+
+
+def plot_snapshot(snapshot, path):
+    """Top-down plots of a bag without ground truth at one moment, side by side on the same
+    axes: the inputs (each in its colour, moved into the reference scan's frame by their
+    mounts), and the outputs. A scan whose mount is unknown gets a panel of its own, in
+    its own frame."""
+    plt = _plt()
+    scans = snapshot["scans"]
+    placed = [t for t in sorted(scans) if scans[t].get("mount") is not None]
+    panels = [("inputs", snapshot["frame"], [t for t in placed if scans[t]["input"]]),
+              ("outputs", snapshot["frame"], [t for t in placed if not scans[t]["input"]])]
+    panels = [p for p in panels if p[2]]
+    panels += [("no mount to %s" % snapshot["frame"], scans[t]["frame"], [t])
+               for t in sorted(scans) if scans[t].get("mount") is None]
+    points = {t: _scan_points(scans[t]) for t in scans}
+    xy = [np.abs(np.concatenate(points[t])) for t in placed if points[t][0].size]
+    lim = min(max(2.0, float(np.percentile(np.concatenate(xy), 99)) if xy else 2.0) * 1.05, 40.0)
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.6 * len(panels), 4.9), squeeze=False)
+    colours = plt.get_cmap("tab10").colors
+    for ax, (title, frame, topics) in zip(axes[0], panels):
+        for t in topics:
+            s = scans[t]
+            x, y = points[t]
+            ax.plot(x, y, ".", ms=1.5, color=colours[sorted(scans).index(t) % len(colours)],
+                    label="%s (%s%s, %+.0f ms)" % (
+                        t, "input" if s["input"] else "output",
+                        "" if s["frame"] == frame else " from " + s["frame"],
+                        1000 * (s["stamp"] - snapshot["stamp"])))
+        ax.plot(0, 0, "k^", ms=6)
+        ax.set_aspect("equal")
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+        ax.set_title(title, fontsize=8)
+        ax.set_xlabel("x in %s, m" % frame, fontsize=7)
+        ax.set_ylabel("y in %s, m" % frame, fontsize=7)
+        ax.tick_params(labelsize=6)
+        ax.legend(fontsize=6, markerscale=4, loc="upper right")
+    fig.suptitle("scans near stamp %.3f s (%s), in %s" % (snapshot["stamp"], snapshot["topic"],
+                                                           snapshot["frame"]), fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
 def summary_text(res):
     lines = ["bag %s: %.1f s" % (os.path.basename(res["bag"]), res["bag_duration_s"])]
     for t, o in sorted(res["outputs"].items()):
         lines.append("  %-28s %5d msgs %6s Hz  latency p95 %6s ms  dropped %s" % (
             t, o["count"], fmt(o["rate_hz"]), fmt(o["latency_p95_s"], 1000),
             o["dropped"] if o["inputs"] else "n/a"))
+    if stamps_ahead_note(res):
+        lines.append("  negative latencies: stamps ahead of the bag clock (see the report); "
+                     "the pipeline's own delay is 'delay after input'")
     total = sum(c["cpu_percent"] for c in res["cpu"].values())
     lines.append("  CPU of the pipeline: %s%% of one core (%s)" % (fmt(total), ", ".join(
         "%s %s%%" % (n, fmt(c["cpu_percent"])) for n, c in sorted(res["cpu"].items()))))
