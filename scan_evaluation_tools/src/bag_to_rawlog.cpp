@@ -165,7 +165,7 @@ mrpt::obs::CActionRobotMovement2D::TMotionModelOptions motionModel()
   m.modelSelection = mrpt::obs::CActionRobotMovement2D::mmGaussian;
   m.gaussianModel.a1 = 0.05;                       // m of std per m driven
   m.gaussianModel.a2 = mrpt::RAD2DEG(0.001);       // m per degree turned
-  m.gaussianModel.a3 = mrpt::DEG2RAD(2.0);         // degree per m driven
+  m.gaussianModel.a3 = mrpt::DEG2RAD(0.5);         // degree per m driven
   m.gaussianModel.a4 = 0.05;                       // degree per degree turned
   m.gaussianModel.minStdXY = 0.01;                 // m
   m.gaussianModel.minStdPHI = mrpt::DEG2RAD(0.5);  // rad

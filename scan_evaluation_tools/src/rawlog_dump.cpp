@@ -19,7 +19,7 @@ int main(int argc, char** argv)
   {
     std::cerr << "usage: rawlog_dump FILE.rawlog\n"
                  "Prints per action/observation pair: entry stamp odom_dx odom_dy odom_dyaw beams aperture "
-                 "max_range valid no_return sensor_x sensor_y sensor_z sensor_yaw\n";
+                 "max_range valid no_return sensor_x sensor_y sensor_z sensor_yaw first_angle last_angle\n";
     return 2;
   }
   mrpt::io::CFileGZInputStream file;
@@ -31,7 +31,7 @@ int main(int argc, char** argv)
   auto archive = mrpt::serialization::archiveFrom(file);
   std::printf(
     "# entry stamp odom_dx odom_dy odom_dyaw beams aperture max_range valid no_return sensor_x sensor_y "
-    "sensor_z sensor_yaw\n");
+    "sensor_z sensor_yaw first_angle last_angle\n");
   std::size_t entry = 0;
   double dx = NAN, dy = NAN, dyaw = NAN;
   while (true)
@@ -67,9 +67,11 @@ int main(int argc, char** argv)
         no_return += !scan->getScanRangeValidity(i) && scan->getScanRange(i) >= scan->maxRange ? 1 : 0;
       }
       const auto& s = scan->sensorPose;
-      std::printf("%zu %.9f %.9f %.9f %.9f %zu %.9f %.6f %zu %zu %.9f %.9f %.9f %.9f\n", entry,
+      const std::size_t n = scan->getScanSize();
+      std::printf("%zu %.9f %.9f %.9f %.9f %zu %.9f %.6f %zu %zu %.9f %.9f %.9f %.9f %.9f %.9f\n", entry,
                   mrpt::Clock::toDouble(scan->timestamp), dx, dy, dyaw, scan->getScanSize(), scan->aperture,
-                  scan->maxRange, valid, no_return, s.x(), s.y(), s.z(), s.yaw());
+                  scan->maxRange, valid, no_return, s.x(), s.y(), s.z(), s.yaw(), n ? scan->getScanAngle(0) : NAN,
+                  n ? scan->getScanAngle(n - 1) : NAN);
       ++entry;
     }
   }

@@ -121,12 +121,17 @@ def test_odometry_increments_compose_back_to_the_bags_poses(converted):
 def test_sensor_pose_comes_from_tf_turned_to_the_scans_middle_beam(converted):
     rows = converted["rows"]
     # columns: beams aperture max_range valid no_return sensor_x sensor_y sensor_z sensor_yaw
+    # first_angle last_angle
     np.testing.assert_array_equal(rows[:, 5], BEAMS)
     np.testing.assert_allclose(rows[:, 6], INC * (BEAMS - 1), atol=1e-6)
     np.testing.assert_allclose(rows[:, 7], 20.0)
     np.testing.assert_allclose(rows[:, 10:13], np.tile(MOUNT[:3], (len(rows), 1)), atol=1e-9)
     middle = ANGLE_MIN + INC * (BEAMS - 1) / 2
     np.testing.assert_allclose(rows[:, 13], MOUNT[3] + middle, atol=1e-9)
+    # MRPT's own beam directions (getScanAngle) in base_link are the ROS beams' directions
+    np.testing.assert_allclose(rows[:, 13] + rows[:, 14], MOUNT[3] + ANGLE_MIN, atol=1e-6)
+    np.testing.assert_allclose(rows[:, 13] + rows[:, 15], MOUNT[3] + ANGLE_MIN + INC * (BEAMS - 1),
+                               atol=1e-6)
 
 
 def test_rep117_values_become_invalid_ranges(converted):

@@ -144,8 +144,9 @@ def convert(bag, topic, rawlog, index, min_interval=MIN_INTERVAL, log_path=None)
 # ---------------------------------------------------------------- rbpf-slam
 
 def run_rbpf_slam(rawlog, workdir, seed=0, config=None, timeout=900):
-    """rbpf-slam on a rawlog; returns {"path": (n, 4) stamp x y yaw, "map": P(occupied)
-    array [row = y, col = x], "limits": (x_min, x_max, y_min, y_max), "wall_s"}."""
+    """rbpf-slam on a rawlog; returns {"path": (n, 4) stamp x y yaw of the filter's estimate
+    at every step, "map": P(occupied) array [row = y, col = x] of the most likely particle,
+    "limits": (x_min, x_max, y_min, y_max), "wall_s"}."""
     os.makedirs(workdir, exist_ok=True)
     out = os.path.join(workdir, "rbpf_out")
     with open(config or package_path("config", "rbpf_slam.ini")) as f:
@@ -163,7 +164,7 @@ def run_rbpf_slam(rawlog, workdir, seed=0, config=None, timeout=900):
     path = np.column_stack([raw[:, 7], raw[:, 1], raw[:, 2], raw[:, 4]])
     base = os.path.join(out, "finalMap_mrpt__maps__COccupancyGridMap2D_00")
     p_free = _read_png_gray(base + ".png") / 255.0
-    limits = tuple(np.loadtxt(base + "_limits.txt").ravel()[:4])
+    limits = tuple(np.loadtxt(base + "_limits.txt", comments="%").ravel()[:4])
     return {"path": path, "map": 1.0 - p_free[::-1], "limits": limits, "wall_s": wall}
 
 
@@ -347,7 +348,8 @@ def slam_experiment(scans_by_topic, source_bag, scenario, refs, outdir, workdir=
 
 def evaluate_slam(run, index, scenario, refs):
     """Figures of one rbpf-slam run against the ground truth (and the run's aligned data
-    for the plots)."""
+    for the plots). Path and map are placed by the rigid fit of the estimated path to the
+    true one."""
     path = run["path"]
     true = np.array([scenario.true_pose(s)[:2] for s in path[:, 0]])
     rmse, theta, t = aligned_rmse(path[:, 1:3], true)
