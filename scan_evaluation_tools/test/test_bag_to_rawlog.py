@@ -47,8 +47,8 @@ def write_bag(path):
     scans = []
     with rosbag.Bag(path, "w") as bag:
         q = (0.0, 0.0, math.sin(MOUNT[3] / 2), math.cos(MOUNT[3] / 2))
-        bag.write("/tf_static", TFMessage([bagio.transform(T0, "base_link", "laser", MOUNT[:3], q)]),
-                  bagio.stamp(T0))
+        mount = bagio.transform(T0, "base_link", "laser", MOUNT[:3], q)
+        bag.write("/tf_static", TFMessage([mount]), bagio.stamp(T0))
         for k in range(501):  # 10 s at 50 Hz
             t = T0 + 0.02 * k
             x, y, yaw = true_pose(t)
@@ -56,7 +56,8 @@ def write_bag(path):
             m.header.stamp = bagio.stamp(t)
             m.header.frame_id, m.child_frame_id = "odom", "base_link"
             m.pose.pose.position.x, m.pose.pose.position.y = x, y
-            m.pose.pose.orientation.z, m.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+            orientation = m.pose.pose.orientation
+            orientation.z, orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
             bag.write("/odom", m, bagio.stamp(t))
         stamps = [T0 - 0.5] + [T0 + 0.1 * k + 0.007 for k in range(95)]
         for i, t in enumerate(stamps):
@@ -105,7 +106,8 @@ def test_odometry_increments_compose_back_to_the_bags_poses(converted):
     worst = 0.0
     for r in rows:
         dx, dy, dyaw = r[2:5]
-        x, y = x + math.cos(yaw) * dx - math.sin(yaw) * dy, y + math.sin(yaw) * dx + math.cos(yaw) * dy
+        c, s = math.cos(yaw), math.sin(yaw)
+        x, y = x + c * dx - s * dy, y + s * dx + c * dy
         yaw += dyaw
         tx, ty, tyaw = true_pose(r[1])
         worst = max(worst, math.hypot(x - tx, y - ty))

@@ -62,3 +62,9 @@ TEST(Poses, WrapAngle)
   EXPECT_NEAR(wrapAngle(-M_PI), M_PI, 1e-12);
   EXPECT_NEAR(wrapAngle(0.5 - 4 * M_PI), 0.5, 1e-12);
 }
+
+int main(int argc, char** argv)
+{
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
