@@ -197,3 +197,4 @@ def test_evaluate_bag_usage_errors(tmp_path):
     assert run([tool, str(tmp_path / "none.bag")], 60)[0] == 2
     assert run([tool], 60)[0] == 2
     assert run([tool, DUAL_BAG, "--launch", str(tmp_path / "none.launch")], 60)[0] == 2
+    assert run([tool, DUAL_BAG, "--slam"], 60)[0] == 2  # the SLAM's pictures need --output
