@@ -473,7 +473,7 @@ THRESHOLDS = [
     ("min_coverage", "coverage", ">=", "outputs", "fraction of beams with a return"),
 ]
 
-# SLAM targets (laserscan_toolbox.slam.check_targets), in the order of its target keys
+# SLAM targets (--slam): options of laserscan_toolbox.slam.check_targets' targets
 SLAM_THRESHOLDS = [
     # (option, target key, help)
     ("max_slam_path_rmse", "max_path_rmse", "SLAM path RMSE of both streams, m"),
