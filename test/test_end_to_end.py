@@ -40,7 +40,8 @@ def evaluated(tmp_path_factory):
     assert code == 0, out
     outdir = str(d / "out")
     code, log = run([os.path.join(SCRIPTS, "evaluate_bag"), bag, "--output", outdir,
-                     "--save-scans", "--no-progress", "--max-median-error", "0.03"], 600)
+                     "--save-scans", "--no-progress", "--max-median-error", "0.03", "--slam"],
+                    600)
     with open(os.path.join(outdir, "results.json")) as f:
         results = json.load(f)
     scans = ev.load_scan_records(os.path.join(outdir, "scans.npz"))
@@ -130,6 +131,33 @@ def test_maps_show_3d_obstacles_only_with_cameras(evaluated):
     assert m[MERGED]["found_3d"] >= 0.25, m
     assert m[MERGED]["found_3d"] >= 2.5 * m[LIDAR_ONLY]["found_3d"], m
     assert os.path.isfile(os.path.join(evaluated["out"], "maps", "maps.png"))
+
+
+def test_real_slam_and_localization_on_both_streams(evaluated):
+    """rbpf-slam and pf-localization (MRPT) on the recorded lidar-only and unified scans.
+    The bag is short (18 s, about 8 m driven, no loop): the targets of the full scenario
+    (docs/slam.md) with margins for a short run."""
+    res = evaluated["results"]
+    slam, loc = res["slam"], res["localization"]
+    assert set(slam) == set(loc) == {LIDAR_ONLY, MERGED}, res.get("slam_experiment")
+    for t in (LIDAR_ONLY, MERGED):
+        s = slam[t]
+        assert s["scans"] > 100, (t, s)
+        assert s["path_rmse_m"] <= 0.10, (t, s)
+        # the SLAM corrects odometry (over 8 m the drift is small, so only "not worse")
+        assert s["path_rmse_m"] <= s["odometry_rmse_m"] + 0.02, (t, s)
+        assert loc[t]["rmse_m"] <= 0.15 and loc[t]["steps"] == s["scans"], (t, loc[t])
+    u, l = slam[MERGED], slam[LIDAR_ONLY]
+    assert u["map_precision"] >= 0.85, u
+    assert u["obstacles_3d_found"] >= 0.25, u
+    assert u["obstacles_3d_found"] >= 2 * l["obstacles_3d_found"], (u, l)
+    assert u["map_recall"] > l["map_recall"], (u, l)
+    exp = res["slam_experiment"]
+    for png in exp["figures"].values():
+        assert os.path.isfile(os.path.join(evaluated["out"], png)), png
+    with open(os.path.join(evaluated["out"], "report.md")) as f:
+        report = f.read()
+    assert "## SLAM and localization" in report and "(slam_maps.png)" in report
 
 
 def test_users_bag_without_ground_truth(tmp_path):
@@ -264,3 +292,4 @@ def test_evaluate_bag_usage_errors(tmp_path):
     assert run([tool, str(tmp_path / "none.bag")], 60)[0] == 2
     assert run([tool], 60)[0] == 2
     assert run([tool, DUAL_BAG, "--launch", str(tmp_path / "none.launch")], 60)[0] == 2
+    assert run([tool, DUAL_BAG, "--slam"], 60)[0] == 2  # the SLAM's pictures need --output

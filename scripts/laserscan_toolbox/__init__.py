@@ -12,6 +12,8 @@ pays for what it uses):
 - ``scenario``  ``Scenario``: the built-in scenario, its ground truth (ideal scan,
                 obstacle grid), topic names (``TOPICS``) and the bag simulator.
 - ``bagio``     helpers to write ROS messages (latched topics, tf) into a bag.
+- ``slam``      real 2D SLAM (MRPT rbpf-slam) and localization (pf-localization)
+                on recorded scan streams, aligned and scored against the ground truth.
 
 The command-line entry points live beside this folder in ``scripts/``; each adds
 ``scripts/`` to ``sys.path`` and imports from here.

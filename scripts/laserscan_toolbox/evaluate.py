@@ -568,6 +568,18 @@ THRESHOLDS = [
     ("min_coverage", "coverage", ">=", "outputs", "fraction of beams with a return"),
 ]
 
+# SLAM targets (--slam): options of laserscan_toolbox.slam.check_targets' targets
+SLAM_THRESHOLDS = [
+    # (option, target key, help)
+    ("max_slam_path_rmse", "max_path_rmse", "SLAM path RMSE of both streams, m"),
+    ("min_slam_map_precision", "min_map_precision",
+     "share of the unified scan's SLAM map cells near a true obstacle"),
+    ("min_slam_3d_ratio", "min_3d_ratio",
+     "3D obstacles in the unified scan's SLAM map / in the lidar-only one's"),
+    ("max_localization_gap", "max_localization_gap",
+     "localization RMSE of the unified scan minus the lidar-only one's, m"),
+]
+
 
 def check_thresholds(results, options, topics):
     """List of (ok, text) for every threshold given, on every topic in ``topics``."""
@@ -600,8 +612,12 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
              band=None, tol=0.05, beam_window=1, max_scans=300, plots=True, workdir=None,
              rel_tol=0.03,
              log=print, map_topics=("/lidar_scan", "/merged_scan"), map_resolution=0.05,
-             save_scans=False):
-    """Runs everything and writes results.json (+ report.md and plots when ``plots``)."""
+             save_scans=False, slam=False, slam_targets=None, slam_seed=0):
+    """Runs everything and writes results.json (+ report.md and plots when ``plots``).
+
+    slam: also run the SLAM and localization experiment (``laserscan_toolbox.slam``) on
+    the first two ``map_topics`` (lidar-only, unified); slam_targets: its targets
+    (``slam.TARGETS``' keys) joined to the thresholds."""
     t_start = time.time()
     thresholds = thresholds or {}
     log("inspecting %s" % bag)
@@ -652,9 +668,13 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
             for t, a in acc_in.items():
                 a["input"] = True
                 results["accuracy"][t] = a
+        refs = None
         if output and map_topics:
-            results["mapping"] = run_mapping(run, info, scenario, results, map_topics,
-                                             os.path.join(output, "maps"), log=log)
+            results["mapping"], refs = run_mapping(run, info, scenario, results, map_topics,
+                                                   os.path.join(output, "maps"), log=log)
+        if slam and refs is not None:
+            results.update(run_slam(run, info, scenario, refs, map_topics, output, seed=slam_seed,
+                                    log=log))
     elif output and plots:
         run["snapshot"] = scan_snapshot(bag, info, run)
         if run["snapshot"]:
@@ -667,6 +687,9 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
                           for t, v in run["snapshot"]["scans"].items()}}
     topics = threshold_topics or _default_threshold_topics(results)
     checks = check_thresholds(results, thresholds, topics)
+    if slam_targets:
+        from . import slam as slam_module
+        checks += slam_module.check_targets(results, slam_targets, *(map_topics or ())[:2])
     results["thresholds"] = [{"ok": ok, "check": text} for ok, text in checks]
     results["passed"] = all(ok for ok, _ in checks)
     results["evaluation_wall_s"] = time.time() - t_start
@@ -692,7 +715,7 @@ def run_mapping(run, info, scenario, results, map_topics, outdir, resolution=0.0
         if scans:
             streams["%s" % t] = [s for s in scans if info["start"] <= s["stamp"] <= info["end"]]
     if not streams:
-        return {"skipped": "none of %s was recorded" % ", ".join(map_topics)}
+        return {"skipped": "none of %s was recorded" % ", ".join(map_topics)}, None
     log("mapping experiment on %s" % ", ".join(streams))
     floor, zlo, zhi = results["band"]
     plane = None
@@ -726,13 +749,34 @@ def run_mapping(run, info, scenario, results, map_topics, outdir, resolution=0.0
             ideal_view.append(dict(s, ranges=np.where(view, r, np.inf)))
     ts = np.arange(info["start"], info["end"], 0.1)
     traj = np.array([scenario.true_pose(t)[:2] for t in ts])
-    fig = mapping.mapping_experiment(streams, scenario, outdir, resolution=resolution,
-                                     band=(zlo, zhi), plane_band=plane, trajectory=traj,
-                                     ideal_scans=ideal, ideal_scans_3d=ideal_view or None)
+    fig, refs = mapping.mapping_experiment(streams, scenario, outdir, resolution=resolution,
+                                           band=(zlo, zhi), plane_band=plane, trajectory=traj,
+                                           ideal_scans=ideal, ideal_scans_3d=ideal_view or None,
+                                           return_grids=True)
     fig["plane_band"] = plane
     fig["band"] = (zlo, zhi)
     fig["reference_spans"] = spans
-    return fig
+    return fig, refs
+
+
+def run_slam(run, info, scenario, refs, map_topics, output, seed=0, log=print):
+    """The SLAM and localization experiment on the recorded streams; returns the results'
+    "slam", "localization" (keyed by topic) and "slam_experiment" entries."""
+    from . import slam
+    scans = {t: [s for s in run["records"].get(t, {}).get("scans", [])
+                 if info["start"] <= s["stamp"] <= info["end"]] for t in map_topics[:2]}
+    try:
+        res = slam.slam_experiment(scans, info["path"], scenario, refs, output,
+                                   topics=tuple(map_topics[:2]), seed=seed, log=log)
+    except slam.SlamError as e:
+        log("SLAM experiment failed: %s" % e)
+        return {"slam_experiment": {"error": str(e)}}
+    if "skipped" in res:
+        return {"slam_experiment": res}
+    out = {"slam": res.pop("slam"), "slam_experiment": res}
+    if "localization" in res:
+        out["localization"] = res.pop("localization")
+    return out
 
 
 def save_scan_records(run, path):
@@ -818,6 +862,13 @@ def main(argv=None):
     p.add_argument("--map-topics", nargs="*", default=["/lidar_scan", "/merged_scan"],
                    metavar="TOPIC", help="scan topics mapped at the true poses when the bag has "
                    "ground truth (default: /lidar_scan /merged_scan; none to skip)")
+    p.add_argument("--slam", action="store_true",
+                   help="also run real 2D SLAM (MRPT rbpf-slam) and localization "
+                   "(pf-localization on the ground-truth map) on the first two --map-topics "
+                   "(lidar-only, unified): docs/slam.md")
+    p.add_argument("--slam-seed", type=int, default=0, help="rbpf-slam's random seed")
+    for opt, _, hlp in SLAM_THRESHOLDS:
+        p.add_argument("--" + opt.replace("_", "-"), type=float, help="threshold (--slam): " + hlp)
     p.add_argument("--save-scans", action="store_true",
                    help="also write every recorded scan to OUTPUT/scans.npz")
     p.add_argument("--no-progress", action="store_true")
@@ -842,14 +893,20 @@ def main(argv=None):
     if a.config and not os.path.isdir(a.config):
         print("evaluate_bag: %s: no such folder" % a.config, file=sys.stderr)
         return 2
+    if a.slam and not a.output:
+        print("evaluate_bag: --slam needs --output", file=sys.stderr)
+        return 2
     thresholds = {opt: getattr(a, opt) for opt, *_ in THRESHOLDS}
+    slam_targets = {key: getattr(a, opt) for opt, key, _ in SLAM_THRESHOLDS
+                    if getattr(a, opt) is not None}
     thresholds["max_cpu"] = a.max_cpu
     try:
         res = evaluate(a.bag, a.launch, a.arg, a.config, a.output, a.rate, not a.no_progress,
                        thresholds, a.threshold_topics, a.band, a.tolerance, a.beam_window,
                        a.max_scans, plots=not a.no_plots,
                        log=lambda m: print(m, file=sys.stderr), map_topics=a.map_topics,
-                       save_scans=a.save_scans, rel_tol=a.relative_tolerance)
+                       save_scans=a.save_scans, rel_tol=a.relative_tolerance, slam=a.slam,
+                       slam_targets=slam_targets if a.slam else None, slam_seed=a.slam_seed)
     except BagError as e:
         print("evaluate_bag: %s" % e, file=sys.stderr)
         return 2

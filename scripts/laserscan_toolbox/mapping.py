@@ -128,14 +128,18 @@ def compare_maps(maps, truth, truth_plane, reference=None, tolerance_cells=1, re
     for name, g in maps.items():
         occ = g.occupied()
         near_occ = dilate(occ, tolerance_cells)
+        false_cells = int((occ & observed & ~near_truth).sum())
+        occupied_cells = int((occ & observed).sum())
         out[name] = {
             # against the filled ground-truth grid inside the observed area
             "iou_truth": metrics.grid_iou(occ, truth, observed),
             # against what could be seen, a cell matching within tolerance_cells
             "iou": _tolerant_iou(occ, seen, observed, tolerance_cells),
             # occupied cells with no obstacle nearby in the ground truth
-            "false_cells": int((occ & observed & ~near_truth).sum()),
-            "occupied_cells": int((occ & observed).sum()),
+            "false_cells": false_cells,
+            "occupied_cells": occupied_cells,
+            # share of the occupied cells with an obstacle within tolerance_cells
+            "precision": 1.0 - false_cells / occupied_cells if occupied_cells else float("nan"),
             "found": float((seen & near_occ).sum() / max(1, seen.sum())),
             "found_3d": float((only3d & near_occ).sum() / max(1, only3d.sum())),
         }
@@ -154,22 +158,11 @@ def _tolerant_iou(occ, truth, region, k):
     return float(tp_truth.sum() / denom) if denom else float("nan")
 
 
-def mapping_experiment(scans_by_name, scenario, outdir, resolution=0.05, band=(0.05, 1.0),
-                       plane_band=None, trajectory=None, max_range=8.0, ideal_scans=None,
-                       ideal_scans_3d=None):
-    """Maps of each scan stream at the true poses, side by side with the ground truth.
-
-    scans_by_name: {"lidar only (/lidar_scan)": [scan dicts], ...}; band: the robot's
-    obstacle band (heights above the floor); plane_band: the lidars' band; ideal_scans:
-    scan dicts of the ideal scan in ``band`` along the path (the reference map);
-    ideal_scans_3d: the same restricted to where the 3D sensors look (the reference of the
-    "3D obstacles found" figure; default ideal_scans).
-    Writes maps.png and map_server files; returns the figures.
-    """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def reference_maps(scenario, resolution=0.05, band=(0.05, 1.0), plane_band=None, max_range=8.0,
+                   ideal_scans=None, ideal_scans_3d=None):
+    """What maps are judged against: the ground-truth obstacle grids of the robot's band
+    (``truth``) and of the lidars' band (``plane``), and the maps of ideal scans along the
+    path (``reference``, ``reference_3d``, or None); with ``origin`` and ``resolution``."""
     truth, origin = scenario.ground_truth_grid(resolution, band[0], band[1], static_only=True)
     truth = np.asarray(truth, bool)
     if plane_band is not None:
@@ -178,18 +171,69 @@ def mapping_experiment(scans_by_name, scenario, outdir, resolution=0.05, band=(0
         plane = np.asarray(plane, bool)
     else:
         plane = np.zeros_like(truth)
+    refs = {"truth": truth, "plane": plane, "origin": origin, "resolution": resolution,
+            "band": band, "reference": None, "reference_3d": None}
+    for key, scans in (("reference", ideal_scans), ("reference_3d", ideal_scans_3d)):
+        if scans:
+            refs[key] = build_map(scans, lambda t: scenario.true_pose(t), origin, resolution,
+                                  truth.shape, max_range=max_range)
+    return refs
+
+
+def only_3d(refs):
+    """Ground-truth cells above the lidars' plane (table tops, overhangs)."""
+    return refs["truth"] & ~dilate(refs["plane"], 1)
+
+
+def grid_extent(refs):
+    """(x_min, x_max, y_min, y_max) of the ground-truth grid, for imshow."""
+    (x0, y0), res, shape = refs["origin"], refs["resolution"], refs["truth"].shape
+    return (x0, x0 + shape[1] * res, y0, y0 + shape[0] * res)
+
+
+def map_image(grid, refs):
+    """RGB picture of a map: unknown grey, free white, occupied black, 3D obstacles red."""
+    im = np.full(refs["truth"].shape + (3,), 0.75)
+    im[grid.known() & ~grid.occupied()] = (1.0, 1.0, 1.0)
+    im[grid.occupied()] = (0.0, 0.0, 0.0)
+    im[grid.occupied() & dilate(only_3d(refs), 1)] = (0.85, 0.1, 0.1)
+    return im
+
+
+def truth_image(refs):
+    """RGB picture of the ground truth (3D obstacles red)."""
+    img = np.full(refs["truth"].shape + (3,), 1.0)
+    img[refs["truth"]] = (0.1, 0.1, 0.1)
+    img[only_3d(refs)] = (0.85, 0.1, 0.1)
+    return img
+
+
+def mapping_experiment(scans_by_name, scenario, outdir, resolution=0.05, band=(0.05, 1.0),
+                       plane_band=None, trajectory=None, max_range=8.0, ideal_scans=None,
+                       ideal_scans_3d=None, return_grids=False):
+    """Maps of each scan stream at the true poses, side by side with the ground truth.
+
+    scans_by_name: {"lidar only (/lidar_scan)": [scan dicts], ...}; band: the robot's
+    obstacle band (heights above the floor); plane_band: the lidars' band; ideal_scans:
+    scan dicts of the ideal scan in ``band`` along the path (the reference map);
+    ideal_scans_3d: the same restricted to where the 3D sensors look (the reference of the
+    "3D obstacles found" figure; default ideal_scans).
+    Writes maps.png and map_server files; returns the figures, and with ``return_grids``
+    also ``reference_maps``' dict with the built maps under "maps".
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    refs = reference_maps(scenario, resolution, band, plane_band, max_range, ideal_scans,
+                          ideal_scans_3d)
+    truth, plane, origin = refs["truth"], refs["plane"], refs["origin"]
+    reference, reference_3d = refs["reference"], refs["reference_3d"]
     maps = {}
     for name, scans in scans_by_name.items():
         maps[name] = build_map(scans, lambda t: scenario.true_pose(t), origin, resolution,
                                truth.shape, max_range=max_range)
-    reference = None
-    if ideal_scans:
-        reference = build_map(ideal_scans, lambda t: scenario.true_pose(t), origin, resolution,
-                              truth.shape, max_range=max_range)
-    reference_3d = None
-    if ideal_scans_3d:
-        reference_3d = build_map(ideal_scans_3d, lambda t: scenario.true_pose(t), origin,
-                                 resolution, truth.shape, max_range=max_range)
+    refs["maps"] = maps
     figures = compare_maps(maps, truth, plane, reference, reference_3d=reference_3d)
     os.makedirs(outdir, exist_ok=True)
     files = {}
@@ -199,23 +243,14 @@ def mapping_experiment(scans_by_name, scenario, outdir, resolution=0.05, band=(0
         files[name] = os.path.basename(base) + ".pgm"
     figures["files"] = files
 
-    extent = (origin[0], origin[0] + truth.shape[1] * resolution,
-              origin[1], origin[1] + truth.shape[0] * resolution)
+    extent = grid_extent(refs)
     n = len(maps) + 1
     fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 3.6))
-    only3d = truth & ~dilate(plane, 1)
-    img = np.full(truth.shape + (3,), 1.0)
-    img[truth] = (0.1, 0.1, 0.1)
-    img[only3d] = (0.85, 0.1, 0.1)
-    axes[0].imshow(img, origin="lower", extent=extent, interpolation="nearest")
+    axes[0].imshow(truth_image(refs), origin="lower", extent=extent, interpolation="nearest")
     axes[0].set_title("ground truth, %.2f-%.2f m\n(red: above the lidars' plane)" % band,
                       fontsize=8)
     for ax, (name, g) in zip(axes[1:], maps.items()):
-        im = np.full(truth.shape + (3,), 0.75)
-        im[g.known() & ~g.occupied()] = (1.0, 1.0, 1.0)
-        im[g.occupied()] = (0.0, 0.0, 0.0)
-        im[g.occupied() & dilate(only3d, 1)] = (0.85, 0.1, 0.1)
-        ax.imshow(im, origin="lower", extent=extent, interpolation="nearest")
+        ax.imshow(map_image(g, refs), origin="lower", extent=extent, interpolation="nearest")
         f = figures[name]
         ax.set_title("%s\nIoU %.2f, 3D obstacles found %.0f%%"
                      % (name, f["iou"], 100 * f["found_3d"]), fontsize=8)
@@ -229,4 +264,4 @@ def mapping_experiment(scans_by_name, scenario, outdir, resolution=0.05, band=(0
     fig.savefig(os.path.join(outdir, "maps.png"), dpi=100)
     plt.close(fig)
     figures["figure"] = "maps.png"
-    return figures
+    return (figures, refs) if return_grids else figures

@@ -107,6 +107,43 @@ def accuracy_table(results):
                   "false obstacles %", "missed obstacles %", "coverage %", "beams in view"], rows)
 
 
+def slam_table(results):
+    """SLAM and localization figures per stream, side by side (rows: figures)."""
+    slam = results.get("slam", {})
+    loc = results.get("localization", {})
+    topics = list(slam)
+    rows = []
+    for label, section, key, scale, digits in (
+            ("SLAM path RMSE, m", slam, "path_rmse_m", 1, 3),
+            ("odometry alone, path RMSE, m", slam, "odometry_rmse_m", 1, 3),
+            ("SLAM map precision (occupied cells within 0.10 m of an obstacle), %", slam,
+             "map_precision", 100, 1),
+            ("SLAM map recall (reference obstacle cells found), %", slam, "map_recall", 100, 1),
+            ("3D obstacles found in the SLAM map, %", slam, "obstacles_3d_found", 100, 1),
+            ("localization on the ground-truth map, RMSE, m", loc, "rmse_m", 1, 3),
+            ("scans used", slam, "scans", 1, 0)):
+        rows.append([label] + [fmt(section.get(t, {}).get(key), scale, digits) for t in topics])
+    return table(["figure"] + topics, rows)
+
+
+def slam_section(results):
+    exp = results.get("slam_experiment")
+    if not exp:
+        return []
+    lines = ["## SLAM and localization", ""]
+    if "error" in exp or "skipped" in exp:
+        return lines + ["Not run: %s" % exp.get("error", exp.get("skipped")), ""]
+    lines += ["MRPT's `rbpf-slam` (Rao-Blackwellised particle filter grid SLAM, seed %d) on each "
+              "stream with the wheel odometry (one scan per %.1f s at most), its path and map "
+              "fitted to the ground truth by the rigid 2D fit of the paths; `pf-localization` "
+              "on the ground-truth obstacle grid from the true initial pose (RMSE of the "
+              "weighted particle mean). Method and reproduction: docs/slam.md." % (
+                  exp["seed"], exp["min_interval_s"]), "", slam_table(results), "",
+              "![SLAM maps](%s)" % exp["figures"]["maps"], "",
+              "![paths](%s)" % exp["figures"]["paths"], ""]
+    return lines
+
+
 def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
     plots = make_plots(results, examples, run, outdir)
     lines = ["# %s" % title, "",
@@ -157,6 +194,7 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
                           "maps/" + m["files"][n]]
                          for n, v in m.items() if isinstance(v, dict) and "iou" in v]),
                   "", "![maps](maps/maps.png)", ""]
+    lines += slam_section(results)
     lines += ["## Inputs (bag)", "",
               "Age: bag time minus header stamp, i.e. how old a message already was when "
               "recorded; an output's latency includes its inputs' age.", "",
@@ -322,6 +360,13 @@ def summary_text(res):
             if isinstance(v, dict) and "iou" in v:
                 lines.append("  map from %-19s IoU %s, 3D obstacles found %s%%, false cells %d"
                              % (n, fmt(v["iou"], 1, 2), fmt(v["found_3d"], 100), v["false_cells"]))
+    for t, v in res.get("slam", {}).items():
+        loc = res.get("localization", {}).get(t, {})
+        lines.append("  slam on %-19s path RMSE %s m (odometry %s m), map precision %s%%, "
+                     "recall %s%%, 3D obstacles found %s%%; localization RMSE %s m" % (
+                         t, fmt(v["path_rmse_m"], 1, 3), fmt(v["odometry_rmse_m"], 1, 3),
+                         fmt(v["map_precision"], 100), fmt(v["map_recall"], 100),
+                         fmt(v["obstacles_3d_found"], 100), fmt(loc.get("rmse_m"), 1, 3)))
     for c in res["thresholds"]:
         lines.append("  %s %s" % ("PASS" if c["ok"] else "FAIL", c["check"]))
     return "\n".join(lines)

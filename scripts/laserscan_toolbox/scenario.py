@@ -72,19 +72,22 @@ class Scenario:
 
     # ----- construction ----------------------------------------------------------------
     @classmethod
-    def default(cls, seed=0, duration=None, camera_points=None):
+    def default(cls, seed=0, duration=None, camera_points=None, laps=None):
         """The built-in shop-floor scenario.
 
         seed: noise of every sensor and of odometry.  duration (s): None drives
         A -> B -> A once (about 56 s); a longer one repeats the lap, a shorter one
         cuts it.  camera_points: pixels per depth image (default about 52,000).
+        laps: round trips A -> B -> A to drive (revisits: loop closures for SLAM);
+        with a duration too, the shorter of the two ends the scenario.
         """
         robot = paper_robot(camera_points)
         route = default_route()
-        laps = 1
-        if duration is not None:
-            lap = simulate_trajectory(robot, route, 1, None)["t"][-1]
-            laps = max(1, int(math.ceil(float(duration) / lap)))
+        if laps is None:
+            laps = 1
+            if duration is not None:
+                lap = simulate_trajectory(robot, route, 1, None)["t"][-1]
+                laps = max(1, int(math.ceil(float(duration) / lap)))
         return cls(shop_floor(), robot, route, laps, duration, seed)
 
     def to_dict(self):

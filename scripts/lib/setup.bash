@@ -19,6 +19,10 @@ DEBIAN_PACKAGES=(
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libdiagnostic-updater-dev python3-diagnostic-updater libdepth-image-proc-dev
   liblaser-geometry-dev
+  # SLAM and localization experiment: MRPT 2 (rbpf-slam, pf-localization, ros-map-yaml2mrpt;
+  # the rawlog converter's libraries) and rosbag's C++ reader
+  mrpt-apps mrpt-common libmrpt-obs-dev libmrpt-ros1bridge-dev librosbag-storage-dev
+  libtf2-dev libtf2-msgs-dev
   # tests and benchmarks
   librostest-dev googletest libgtest-dev libbenchmark-dev pybind11-dev python3-dev python3-pytest
   # Python side: rospy tools, evaluation, plots
