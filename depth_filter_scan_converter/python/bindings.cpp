@@ -95,6 +95,7 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
     .def_readwrite("angle_increment", &dfsc::Parameters::angle_increment)
     .def_readwrite("range_min", &dfsc::Parameters::range_min)
     .def_readwrite("range_max", &dfsc::Parameters::range_max)
+    .def_readwrite("too_close_at_range_min", &dfsc::Parameters::too_close_at_range_min)
     .def_readwrite("hole_detection", &dfsc::Parameters::hole_detection)
     .def_readwrite("hole_depth", &dfsc::Parameters::hole_depth)
     .def_readwrite("transform_tolerance", &dfsc::Parameters::transform_tolerance)
@@ -107,7 +108,8 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
     .def_readwrite("tf_buffer_duration", &dfsc::Parameters::tf_buffer_duration)
     .def("validate", &dfsc::Parameters::validate, "Raises ValueError naming the bad parameter")
     .def("beam_count", &dfsc::Parameters::beamCount)
-    .def("no_return_value", &dfsc::Parameters::noReturnValue);
+    .def("no_return_value", &dfsc::Parameters::noReturnValue)
+    .def("too_close_value", &dfsc::Parameters::tooCloseValue);
 
   py::class_<dfsc::Projector>(m, "Projector")
     .def(py::init<const dfsc::Parameters&>(), py::arg("params"))

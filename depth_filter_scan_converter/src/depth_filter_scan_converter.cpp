@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/header_check.h"
 
 namespace depth_filter_scan_converter
 {
@@ -29,7 +30,7 @@ const char* failureText(tf2_ros::filter_failure_reasons::FilterFailureReason rea
   {
     case tf2_ros::filter_failure_reasons::OutTheBack:
       return "the transform is older than the tf buffer (OutTheBack)";
-    case tf2_ros::filter_failure_reasons::EmptyFrameID:
+    case tf2_ros::filter_failure_reasons::EmptyFrameID:  // caught before the filter; kept for completeness
       return "the cloud has an empty frame_id";
     default:
       return "no transform arrived before newer clouds pushed it out of the queue";
@@ -90,7 +91,7 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
   reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<Config>>(private_nh_);
   reconfigure_server_->setCallback([this](Config& config, std::uint32_t level) { reconfigure(config, level); });
 
-  updater_.setHardwareID("depth_filter_scan_converter");
+  updater_.setHardwareID(private_nh_.getNamespace());  // the node's name: one converter per camera
   updater_.add("Input and processing", this, &DepthFilterScanConverter::diagnose);
   last_report_ = ros::WallTime::now();
   diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { updater_.update(); });
@@ -132,6 +133,14 @@ void DepthFilterScanConverter::cloudArrived(const Cloud::ConstPtr& cloud)
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++received_;
+    // Checked before tf2 sees the header: tf2 adds durations to the stamp (roscpp throws past
+    // 2^32 s, which would abort the whole manager) and warns without throttle on bad frame ids.
+    const std::string problem = headerProblem(cloud->header);
+    if (!problem.empty())
+    {
+      dropMalformed(problem, cloud->header.frame_id);
+      return;
+    }
     arrivals_.emplace_back(cloud.get(), ros::Time::now());
     // Clouds leave the filter's queue (processed or dropped) in arrival order at the latest
     // after queue_size newer ones: older records are of no use.
@@ -139,6 +148,39 @@ void DepthFilterScanConverter::cloudArrived(const Cloud::ConstPtr& cloud)
       arrivals_.pop_front();
   }
   tf_filter_->add(cloud);
+}
+
+std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& header)
+{
+  if (header.frame_id.empty())
+    return "empty frame_id (stamp " + stampText(header.stamp.sec, header.stamp.nsec) + ")";
+  const std::string stamp_problem =
+    stampProblem(header.stamp.sec, header.stamp.nsec, params_.tf_buffer_duration + params_.transform_tolerance);
+  if (!stamp_problem.empty())
+    return stamp_problem;
+  bool had_slash = false;
+  tfFrameId(header.frame_id, &had_slash);
+  if (had_slash && !warned_slash_)
+  {
+    // tf2_ros's MessageFilter strips it too; say it once, then use the frame without it.
+    warned_slash_ = true;
+    ROS_WARN("[%s] frame_id '%s' on %s starts with '/', which tf2 does not accept: using '%s' (said once)",
+             private_nh_.getNamespace().c_str(), header.frame_id.c_str(), nh_.resolveName("cloud_in").c_str(),
+             tfFrameId(header.frame_id).c_str());
+  }
+  return {};
+}
+
+void DepthFilterScanConverter::dropMalformed(const std::string& reason, const std::string& frame_id)
+{
+  ++malformed_;
+  // A new kind of defect is reported at once, the same one again at most every 5 s.
+  if (reason != last_malformed_reason_)
+    warned_malformed_ = ros::WallTime();
+  last_malformed_reason_ = reason;
+  if (due(warned_malformed_))
+    ROS_WARN("[%s] dropped a malformed cloud on %s (frame '%s'): %s", private_nh_.getNamespace().c_str(),
+             nh_.resolveName("cloud_in").c_str(), frame_id.c_str(), reason.c_str());
 }
 
 bool DepthFilterScanConverter::takeArrival(const Cloud* cloud, ros::Time& arrival)
@@ -160,10 +202,11 @@ void DepthFilterScanConverter::transformFailed(const Cloud::ConstPtr& cloud,
   ++tf_failures_;
   ros::Time arrival;
   takeArrival(cloud.get(), arrival);
+  last_tf_reason_ = failureText(reason);
   if (due(warned_tf_))
-    ROS_WARN("[%s] dropped a cloud: no transform %s -> %s at %.3f: %s", private_nh_.getNamespace().c_str(),
-             cloud->header.frame_id.c_str(), params_.reference_frame.c_str(), cloud->header.stamp.toSec(),
-             failureText(reason));
+    ROS_WARN("[%s] dropped a cloud: no transform %s -> %s at %s: %s", private_nh_.getNamespace().c_str(),
+             cloud->header.frame_id.c_str(), params_.reference_frame.c_str(),
+             stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec).c_str(), last_tf_reason_.c_str());
 }
 
 bool DepthFilterScanConverter::due(ros::WallTime& last, double period)
@@ -211,14 +254,7 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
     makeCloudView(layout, cloud->data.data(), cloud->data.size(), params_.intensity_field, view, &intensity_note);
   if (!reason.empty())
   {
-    ++malformed_;
-    // A new kind of defect is reported at once, the same one again at most every 5 s.
-    if (reason != last_malformed_reason_)
-      warned_malformed_ = ros::WallTime();
-    last_malformed_reason_ = reason;
-    if (due(warned_malformed_))
-      ROS_WARN("[%s] dropped a malformed cloud (frame '%s'): %s", name.c_str(), cloud->header.frame_id.c_str(),
-               reason.c_str());
+    dropMalformed(reason, cloud->header.frame_id);
     return;
   }
   if (!intensity_note.empty() && due(warned_intensity_, 30.0))
@@ -228,11 +264,12 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
   try
   {
     camera_to_reference = tf2::transformToEigen(
-      tf_buffer_.lookupTransform(params_.reference_frame, cloud->header.frame_id, cloud->header.stamp));
+      tf_buffer_.lookupTransform(params_.reference_frame, tfFrameId(cloud->header.frame_id), cloud->header.stamp));
   }
   catch (const tf2::TransformException& e)
   {
     ++tf_failures_;
+    last_tf_reason_ = e.what();
     if (due(warned_tf_))
       ROS_WARN("[%s] dropped a cloud: %s", name.c_str(), e.what());
     return;
@@ -334,11 +371,24 @@ void DepthFilterScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrap
   const ros::WallTime now = ros::WallTime::now();
   const double period = std::max((now - last_report_).toSec(), 1e-3);
   const double rate = static_cast<double>(received_ - received_at_last_report_) / period;
-  const std::uint64_t problems = tf_failures_ + malformed_ + stale_;
   const bool subscribed = subscribed_;
 
-  if (problems > problems_at_last_report_)
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "clouds dropped (transform, malformed or late)");
+  // The summary names what dropped clouds since the last update, with the last reason of each.
+  std::string dropped;
+  auto add_cause = [&dropped](std::uint64_t now_count, std::uint64_t before, const char* what,
+                              const std::string& last) {
+    if (now_count == before)
+      return;
+    dropped += (dropped.empty() ? "dropped " : "; ") + std::to_string(now_count - before) + " " + what;
+    if (!last.empty())
+      dropped += " (last: " + last + ")";
+  };
+  add_cause(malformed_, malformed_at_last_report_, "malformed", last_malformed_reason_);
+  add_cause(tf_failures_, tf_failures_at_last_report_, "without transform", last_tf_reason_);
+  add_cause(stale_, stale_at_last_report_, "late (transform_tolerance)", "");
+
+  if (!dropped.empty())
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, dropped);
   else if (subscribed && rate == 0.0)
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "subscribed, but no cloud arrives on cloud_in");
   else
@@ -354,8 +404,12 @@ void DepthFilterScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrap
   status.add("transform failures", tf_failures_);
   status.add("late clouds dropped (transform_tolerance)", stale_);
   status.add("malformed clouds dropped", malformed_);
+  status.add("last malformed reason", last_malformed_reason_);
+  status.add("last transform failure", last_tf_reason_);
   received_at_last_report_ = received_;
-  problems_at_last_report_ = problems;
+  malformed_at_last_report_ = malformed_;
+  tf_failures_at_last_report_ = tf_failures_;
+  stale_at_last_report_ = stale_;
   last_report_ = now;
 }
 

@@ -145,9 +145,10 @@ __attribute__((always_inline)) inline void chunkKernel(const std::uint8_t* p, st
       zr = hole ? f.floor_z : zr;
       ok = ok | hole;
     }
-    // Squared ranges: the square root is taken once per beam at the end.
+    // Squared ranges: the square root is taken once per beam at the end. No range_min test
+    // here: a point that is too close is the beam's closest obstacle, reported at the end.
     const float r2 = xr * xr + yr * yr;
-    ok = ok & (r2 >= f.r2_min) & (r2 <= f.r2_max);
+    ok = ok & (r2 <= f.r2_max);
     const float a = fastAtan2(yr, xr);
     ok = ok & (a >= f.a_lo) & (a <= f.a_hi);
     // Clamp before converting (NaN -> 0): the bounds check of the beam index, which also keeps a
@@ -320,8 +321,9 @@ void Projector::project(const CloudView& cloud, const Eigen::Isometry3d& camera_
 
   ranges.resize(beams);
   const float no_return = p.noReturnValue();
+  const float too_close = p.tooCloseValue();
   for (int b = 0; b < beams; ++b)
-    ranges[b] = std::isinf(best_r2_[b]) ? no_return : std::sqrt(best_r2_[b]);
+    ranges[b] = std::isinf(best_r2_[b]) ? no_return : best_r2_[b] < f.r2_min ? too_close : std::sqrt(best_r2_[b]);
 
   if (intensities)
   {

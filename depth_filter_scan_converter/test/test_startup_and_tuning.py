@@ -187,5 +187,8 @@ def test_diagnostics_are_published(ros_env):
     finally:
         stop(p)
     assert "Input and processing" in r.stdout, r.stdout
-    for key in ("input rate [Hz]", "processing time, mean [ms]", "transform failures", "malformed clouds dropped"):
+    for key in ("input rate [Hz]", "processing time, mean [ms]", "transform failures", "malformed clouds dropped",
+                "last malformed reason", "last transform failure"):
         assert key in r.stdout, key
+    # The hardware id names this converter (one per camera), not the package.
+    assert 'hardware_id: "/conv_diag"' in r.stdout, r.stdout

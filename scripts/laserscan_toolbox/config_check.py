@@ -48,6 +48,8 @@ CONVERTER = {
     "angle_increment": Key("float", math.pi / 720, "rad", lo=0.0, lo_open=True),
     "range_min": Key("float", 0.0, "m", lo=0.0),
     "range_max": Key("float", 10.0, "m", lo=0.0, lo_open=True),
+    "too_close_at_range_min": Key("bool", False,
+                                  doc="a beam nearer than range_min reads range_min instead of -Inf"),
     "hole_detection": Key("bool", False),
     "hole_depth": Key("float", 0.05, "m", lo=0.0),
     "transform_tolerance": Key("float", 0.1, "s", lo=0.0),

@@ -51,6 +51,10 @@ private:
   void reconfigure(Config& config, std::uint32_t level);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   bool takeArrival(const Cloud* cloud, ros::Time& arrival);
+  /// Why the header cannot reach tf2 ("" when it can); warns once about a leading '/'.
+  std::string headerProblem(const std_msgs::Header& header);
+  /// Counts a malformed message and warns, throttled per kind of defect.
+  void dropMalformed(const std::string& reason, const std::string& frame_id);
   /// Throttling per converter (ROS_WARN_THROTTLE keeps one timer per call site, shared by every
   /// converter in a manager: one camera's trouble would hide another's).
   static bool due(ros::WallTime& last, double period = 5.0);
@@ -79,10 +83,12 @@ private:
   ros::Timer diagnostics_timer_;
   // Statistics since start and since the last diagnostics update.
   std::uint64_t received_ = 0, published_ = 0, tf_failures_ = 0, malformed_ = 0, stale_ = 0;
-  std::uint64_t received_at_last_report_ = 0, problems_at_last_report_ = 0;
+  std::uint64_t received_at_last_report_ = 0, malformed_at_last_report_ = 0, tf_failures_at_last_report_ = 0,
+                stale_at_last_report_ = 0;
   ros::WallTime last_report_;
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0;
-  std::string last_malformed_reason_;
+  std::string last_malformed_reason_, last_tf_reason_;
+  bool warned_slash_ = false;
   ros::WallTime warned_tf_, warned_late_, warned_malformed_, warned_intensity_;
 };
 

@@ -14,13 +14,14 @@ namespace depth_filter_scan_converter
 ///
 /// Rules, all in the reference frame (z up):
 /// - a point is an obstacle when floor_height+min_height <= z <= floor_height+max_height and
-///   range_min <= hypot(x, y) <= range_max and angle_min <= atan2(y, x) <= angle_max;
+///   hypot(x, y) <= range_max and angle_min <= atan2(y, x) <= angle_max;
 /// - with hole_detection, a point lower than floor_height-hole_depth is a hole: its obstacle
 ///   is where the ray camera origin -> point crosses z = floor_height (range and angle limits
 ///   then apply to that crossing);
 /// - beam i covers the angles nearest to angle_min + i*angle_increment (round to nearest),
 ///   clamped to the last beam, so a point on angle_max stays in bounds;
-/// - each beam keeps its closest obstacle; beams without one read noReturnValue();
+/// - each beam keeps its closest obstacle; beams without one read noReturnValue(); a beam whose
+///   closest obstacle is nearer than range_min reads tooCloseValue() (-Inf by default, REP 117);
 /// - NaN / Inf points are skipped.
 /// Beam angles come from fastAtan2 (error < kFastAtan2MaxError) and the arithmetic is float, so
 /// a point within a few micro-radians (or micrometres) of a border may land on either side.
@@ -40,7 +41,7 @@ public:
   /// cloud's stamp. `ranges` is resized to beamCount(). `intensities`, if given, is resized to
   /// beamCount() when the view has an intensity field (value of the closest point, 0 where there
   /// is no return) and cleared otherwise. `kept_points`, if given, receives x, y, z (reference
-  /// frame) of every point that passed the filters, hole crossings included.
+  /// frame) of every obstacle point (too close ones and hole crossings included).
   void project(const CloudView& cloud, const Eigen::Isometry3d& camera_to_reference, std::vector<float>& ranges,
                std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr);
 
