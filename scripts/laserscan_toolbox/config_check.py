@@ -60,6 +60,8 @@ CONVERTER = {
     "intensity_field": Key("str", ""),
     "publish_filtered_cloud": Key("bool", False),
     "tf_buffer_duration": Key("float", 10.0, "s", lo=0.0, lo_open=True),
+    "depth_image_rectified": Key("bool", True,
+                                 doc="depth image input: intrinsics from camera_info's P (rectified), else K"),
     "queue_size": Key("int", 10, lo=1, doc="clouds waiting for their transform"),
 }
 CONVERTER_PAIRS = [("min_height", "max_height"), ("angle_min", "angle_max"),

@@ -31,6 +31,7 @@ struct Parameters
   std::string intensity_field;          ///< empty: no intensities in the scan
   bool publish_filtered_cloud = false;  ///< publish the kept points (for rviz)
   double tf_buffer_duration = 10.0;     ///< length of the tf buffer
+  bool depth_image_rectified = true;    ///< depth images: intrinsics from camera_info's P, else K
 
   /// Throws std::invalid_argument naming the first bad parameter and why.
   void validate() const;

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/depth_image_view.h"
 #include "depth_filter_scan_converter/parameters.h"
 
 namespace depth_filter_scan_converter
@@ -45,10 +46,19 @@ public:
   void project(const CloudView& cloud, const Eigen::Isometry3d& camera_to_reference, std::vector<float>& ranges,
                std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr);
 
+  /// The same for a depth image: its pixels are the points (see DepthImageView), with the same
+  /// rules and strides. A depth image has no intensities: `intensities`, if given, is cleared.
+  void project(const DepthImageView& image, const Eigen::Isometry3d& camera_to_reference, std::vector<float>& ranges,
+               std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr);
+
   /// Per-cloud constants of the inner loop (defined in projector.cpp).
   struct Frame;
 
 private:
+  Frame start(const Eigen::Isometry3d& camera_to_reference, std::vector<float>* kept_points);
+  void finish(const Frame& frame, std::vector<float>& ranges);
+  template <bool kHole, bool kKeep>
+  void runDepth(const DepthImageView& image, const Frame& frame, std::vector<float>* kept_points);
   template <typename T, bool kHole, bool kIndex, bool kKeep>
   void run(const CloudView& cloud, const Frame& frame, std::vector<float>* kept_points);
   template <typename T, bool kHole>
@@ -57,6 +67,7 @@ private:
   Parameters params_;
   std::vector<float> best_r2_;
   std::vector<std::uint32_t> best_index_;
+  std::vector<float> column_offsets_;  // u - cx of every column taken from a depth image
 };
 
 /// The straightforward per-point converter (Eigen transform in double, then std::atan2 and
