@@ -97,6 +97,9 @@ void Projector::setParameters(const Parameters& params)
 namespace
 {
 constexpr std::uint32_t kChunk = 256;
+// Rejected points go to one of these slots after the last beam, spread by index so that pass 3
+// can update the minimum without a branch and without one long chain of stores to one slot.
+constexpr std::int32_t kScratchSlots = 8;
 
 // One chunk of points of a row, as plain float arrays (structure of arrays).
 struct alignas(64) Chunk
@@ -107,8 +110,8 @@ struct alignas(64) Chunk
 
 // Pass 2 of the projection, on n points already gathered into c.xs/ys/zs (camera frame):
 // transform, band / hole / range / angle tests, beam index. A rejected point gets an infinite
-// squared range, so that pass 3 never keeps it. xs/ys/zs are overwritten with the point in the
-// reference frame (for the filtered cloud).
+// squared range and a scratch slot after the last beam, so that pass 3 never keeps it.
+// xs/ys/zs are overwritten with the point in the reference frame (for the filtered cloud).
 // Non-short-circuit & and selects only: no branch, so the compiler vectorizes it.
 template <bool kHole>
 __attribute__((always_inline)) inline void transformChunk(std::uint32_t n, const Projector::Frame& f, Chunk& c)
@@ -145,7 +148,7 @@ __attribute__((always_inline)) inline void transformChunk(std::uint32_t n, const
     float fb = (a - f.a_min) * f.inv_inc + 0.5f;
     fb = fb > 0.0f ? fb : 0.0f;
     fb = fb < last_beam ? fb : last_beam;
-    c.bins[i] = ok ? static_cast<std::int32_t>(fb) : 0;
+    c.bins[i] = ok ? static_cast<std::int32_t>(fb) : f.beams + static_cast<std::int32_t>(i % kScratchSlots);
     c.r2s[i] = ok ? r2 : inf;
     c.xs[i] = xr;
     c.ys[i] = yr;
@@ -232,7 +235,8 @@ DFSC_DEPTH_KERNEL(kernelDepthMetresHole, float, true)
 using DepthKernel = void (*)(const std::uint8_t*, std::size_t, const float*, float, float, float, float, std::uint32_t,
                              const Projector::Frame&, Chunk&);
 
-// Pass 3: each beam keeps its closest point. The only data-dependent branch.
+// Pass 3: each beam keeps its closest point. Without indices a select, no branch: noisy depth
+// makes "closer than the beam's best" a coin toss that a branch predictor cannot learn.
 template <bool kIndex, bool kKeep>
 __attribute__((always_inline)) inline void keepClosest(const Chunk& c, std::uint32_t n, std::uint32_t first_index,
                                                        std::uint32_t index_step, float* best, std::uint32_t* best_index,
@@ -242,11 +246,15 @@ __attribute__((always_inline)) inline void keepClosest(const Chunk& c, std::uint
   for (std::uint32_t i = 0; i < n; ++i)
   {
     const std::int32_t b = c.bins[i];
-    if (c.r2s[i] < best[b])
+    if (!kIndex)
+    {
+      const float r2 = c.r2s[i], current = best[b];
+      best[b] = r2 < current ? r2 : current;
+    }
+    else if (c.r2s[i] < best[b])
     {
       best[b] = c.r2s[i];
-      if (kIndex)
-        best_index[b] = first_index + i * index_step;
+      best_index[b] = first_index + i * index_step;
     }
     if (kKeep && c.r2s[i] < inf)
     {
@@ -283,7 +291,7 @@ template <typename T, bool kHole, bool kIndex, bool kKeep>
 void Projector::run(const CloudView& v, const Frame& f, std::vector<float>* kept)
 {
   // Chunks of one row go through the branch-free kernel (passes 1 and 2), then pass 3 keeps
-  // the closest point per beam: the only data-dependent branch.
+  // the closest point per beam (keepClosest).
   Chunk c;
   float* const best = best_r2_.data();
   std::uint32_t* const best_index = best_index_.data();
@@ -357,7 +365,7 @@ Projector::Frame Projector::start(const Eigen::Isometry3d& camera_to_reference, 
 {
   const Parameters& p = params_;
   const int beams = static_cast<int>(p.beamCount());
-  best_r2_.assign(beams, std::numeric_limits<float>::infinity());
+  best_r2_.assign(beams + kScratchSlots, std::numeric_limits<float>::infinity());
   if (kept_points)
     kept_points->clear();
 
@@ -418,7 +426,7 @@ void Projector::project(const CloudView& cloud, const Eigen::Isometry3d& camera_
   const int beams = f.beams;
   const bool want_index = intensities && cloud.has_intensity;
   if (want_index)
-    best_index_.assign(beams, 0);
+    best_index_.assign(beams + kScratchSlots, 0);
   const bool hole = f.hole;
   if (cloud.size() > 0 && cloud.data)
   {

@@ -174,9 +174,9 @@ def write_markdown(res, path):
                      fmt(mrate[0] if mrate else float("nan")), fmt(w["bytes_per_s"], 1e-6, 2),
                      fmt(w["bytes_per_s"] / m["bytes_per_s"] if m["bytes_per_s"] else float("nan"), 1, 0)])
     text = ["# CPU against depth points", "",
-            "Simulated bags of %.0f s per point count; one nodelet manager runs the two camera "
-            "paths (image path: depth-image converters; cloud path: depth_image_proc + cloud "
-            "converters) and the mergers. CPU: CPU seconds per second of bag data, in "
+            "Simulated bags of %.0f s per point count; one nodelet manager runs one of the two "
+            "camera paths (image path: depth-image converters; cloud path: depth_image_proc + "
+            "cloud converters) and the mergers. CPU: CPU seconds per second of bag data, in "
             "percent of one core; "
             "sizes as received by an out-of-process consumer. Total run %.0f s." % (
                 res["duration_s"], res["wall_s"]), "",
