@@ -195,20 +195,31 @@ def test_scenario_round_trips_from_bag(short_bag):
 REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 
 
+@pytest.mark.parametrize("depth_input", ["image", "cloud"])
 @pytest.mark.parametrize("standalone,expected_manager", [("false", True), ("true", False)])
-def test_pipeline_launch_nodes(standalone, expected_manager):
-    """launch/pipeline.launch parses (its configs pass check_config) and starts the
-    two depth_image_proc nodelets, two converters, two mergers, with one manager
-    unless standalone.  Needs the workspace's devel/setup.bash sourced."""
+def test_pipeline_launch_nodes(standalone, expected_manager, depth_input):
+    """launch/pipeline.launch parses (its configs pass check_config) and starts two
+    converters (reading depth images, or with depth_input:=cloud the clouds of two
+    depth_image_proc nodelets) and two mergers, with one manager unless standalone.
+    Needs the workspace's devel/setup.bash sourced."""
     import subprocess
     out = subprocess.run(["roslaunch", "--nodes", os.path.join(REPO, "launch", "pipeline.launch"),
-                          f"standalone:={standalone}"], capture_output=True, text=True, timeout=60)
+                          f"standalone:={standalone}", f"depth_input:={depth_input}"],
+                         capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     nodes = set(out.stdout.split())
-    for n in ("/camera_left_points", "/camera_right_points", "/camera_left_converter",
-              "/camera_right_converter", "/merged_scan_merger", "/lidar_scan_merger"):
+    for n in ("/camera_left_converter", "/camera_right_converter", "/merged_scan_merger", "/lidar_scan_merger"):
         assert n in nodes
+    for n in ("/camera_left_points", "/camera_right_points"):
+        assert (n in nodes) == (depth_input == "cloud")
     assert ("/pipeline_manager" in nodes) == expected_manager
+    # The converters read what depth_input says.
+    args = subprocess.run(["roslaunch", "--args", "/camera_left_converter",
+                           os.path.join(REPO, "launch", "pipeline.launch"), f"standalone:={standalone}",
+                           f"depth_input:={depth_input}"], capture_output=True, text=True, timeout=60)
+    assert args.returncode == 0, args.stderr
+    image_node = "DepthImageScanConverterNodelet" in args.stdout or "depth_image_scan_converter_node" in args.stdout
+    assert image_node == (depth_input == "image"), args.stdout
 
 
 def test_sim_configs_match_the_simulated_robot():

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "../test/cloud_fixtures.h"
+#include "../test/depth_image_fixtures.h"
 #include "../test/pcl_cloud.h"
 #include "depth_filter_scan_converter/projector.h"
 
@@ -118,6 +119,70 @@ void runReference(benchmark::State& state, const Input* in)
     benchmark::Counter(static_cast<double>(in->view.size()), benchmark::Counter::kIsIterationInvariantRate);
 }
 
+// Depth frames of the room (16UC1, as depth cameras and the simulator publish them): the image
+// path's core against what the cloud path does per frame outside transport, depth_image_proc's
+// conversion (the code point_cloud_xyz runs, including its cloud allocation) + the cloud core.
+struct DepthInput
+{
+  DepthFrame frame;
+  dfsc::DepthImageView view;
+  sensor_msgs::PointCloud2Ptr cloud;  // point_cloud_xyz's output, for the cloud core alone
+  Eigen::Isometry3d camera_to_reference;
+};
+
+const DepthInput& roomDepth(std::uint32_t width, std::uint32_t height)
+{
+  static std::map<std::uint32_t, DepthInput> inputs;
+  auto it = inputs.find(width);
+  if (it == inputs.end())
+  {
+    DepthInput in;
+    in.frame = roomFrame(width, height, "16UC1", in.camera_to_reference);
+    in.view = imageView(in.frame);
+    in.cloud = pointCloudXyz(in.frame);
+    it = inputs.emplace(width, std::move(in)).first;
+  }
+  return it->second;
+}
+
+void runImageCore(benchmark::State& state, std::uint32_t width, std::uint32_t height)
+{
+  const DepthInput& in = roomDepth(width, height);
+  dfsc::Projector projector{ dfsc::Parameters() };
+  std::vector<float> ranges;
+  for (auto _ : state)
+  {
+    projector.project(in.view, in.camera_to_reference, ranges);
+    benchmark::DoNotOptimize(ranges.data());
+  }
+}
+
+void runCloudPath(benchmark::State& state, std::uint32_t width, std::uint32_t height)
+{
+  const DepthInput& in = roomDepth(width, height);
+  dfsc::Projector projector{ dfsc::Parameters() };
+  std::vector<float> ranges;
+  for (auto _ : state)
+  {
+    const sensor_msgs::PointCloud2Ptr cloud = pointCloudXyz(in.frame);
+    projector.project(cloudView(*cloud), in.camera_to_reference, ranges);
+    benchmark::DoNotOptimize(ranges.data());
+  }
+}
+
+void runCloudCoreOnly(benchmark::State& state, std::uint32_t width, std::uint32_t height)
+{
+  const DepthInput& in = roomDepth(width, height);
+  dfsc::Projector projector{ dfsc::Parameters() };
+  std::vector<float> ranges;
+  const dfsc::CloudView view = cloudView(*in.cloud);
+  for (auto _ : state)
+  {
+    projector.project(view, in.camera_to_reference, ranges);
+    benchmark::DoNotOptimize(ranges.data());
+  }
+}
+
 void BM_Core_Synthetic320x163(benchmark::State& s)
 {
   runCore(s, &synthetic());
@@ -139,6 +204,12 @@ BENCHMARK(BM_Core_Synthetic320x163)->Unit(benchmark::kMillisecond)->MinTime(1.0)
 BENCHMARK(BM_Reference_Synthetic320x163)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK(BM_Core_FivePeople640x480)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK(BM_Reference_FivePeople640x480)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runImageCore, Depth640x480, 640u, 480u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runCloudPath, Depth640x480, 640u, 480u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runCloudCoreOnly, Depth640x480, 640u, 480u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runImageCore, Depth1280x720, 1280u, 720u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runCloudPath, Depth1280x720, 1280u, 720u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runCloudCoreOnly, Depth1280x720, 1280u, 720u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 
 // Console output as usual; the CPU time per iteration of every run is kept for the ratio lines
 // (CPU time, because the machine may be shared; with --benchmark_repetitions the median is used).
@@ -164,6 +235,16 @@ public:
       const double ref = median(std::string("BM_Reference_") + cloud);
       if (core > 0 && ref > 0)
         std::printf("%-20s %10.4f %15.4f %7.1fx\n", cloud, core, ref, ref / core);
+    }
+    std::printf("\n%-20s %15s %26s %8s %18s\n", "depth frame (16UC1)", "image core [ms]", "point_cloud_xyz+core [ms]",
+                "ratio", "cloud core [ms]");
+    for (const char* frame : { "Depth640x480", "Depth1280x720" })
+    {
+      const double image = median(std::string("runImageCore/") + frame);
+      const double path = median(std::string("runCloudPath/") + frame);
+      const double core = median(std::string("runCloudCoreOnly/") + frame);
+      if (image > 0 && path > 0)
+        std::printf("%-20s %15.4f %26.4f %7.1fx %18.4f\n", frame, image, path, path / image, core);
     }
   }
 

@@ -3,11 +3,15 @@
 #include <sensor_msgs/LaserScan.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include <boost/bind/bind.hpp>
 #include <boost/make_shared.hpp>
 #include <cstring>
 #include <stdexcept>
+#include <type_traits>
 
 #include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/header_check.h"
+#include "depth_filter_scan_converter/run_node.h"
 
 namespace depth_filter_scan_converter
 {
@@ -29,7 +33,7 @@ const char* failureText(tf2_ros::filter_failure_reasons::FilterFailureReason rea
   {
     case tf2_ros::filter_failure_reasons::OutTheBack:
       return "the transform is older than the tf buffer (OutTheBack)";
-    case tf2_ros::filter_failure_reasons::EmptyFrameID:
+    case tf2_ros::filter_failure_reasons::EmptyFrameID:  // caught before the filter; kept for completeness
       return "the cloud has an empty frame_id";
     default:
       return "no transform arrived before newer clouds pushed it out of the queue";
@@ -59,13 +63,17 @@ Parameters loadParameters(const ros::NodeHandle& pnh)
   readParam(pnh, "intensity_field", p.intensity_field, "string");
   readParam(pnh, "publish_filtered_cloud", p.publish_filtered_cloud, "bool");
   readParam(pnh, "tf_buffer_duration", p.tf_buffer_duration, "double");
+  readParam(pnh, "too_close_at_range_min", p.too_close_at_range_min, "bool");
+  readParam(pnh, "depth_image_rectified", p.depth_image_rectified, "bool");
   p.validate();
   return p;
 }
 
-DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh)
+DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh, DepthInput input)
   : nh_(nh),
     private_nh_(private_nh),
+    input_(input),
+    input_topic_(nh.resolveName(input == DepthInput::Cloud ? "cloud_in" : "image")),
     params_(loadParameters(private_nh)),
     tf_buffer_(ros::Duration(params_.tf_buffer_duration)),
     tf_listener_(tf_buffer_),
@@ -76,21 +84,40 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
   if (queue_size_ < 1)
     throw std::invalid_argument("parameter 'queue_size' must be >= 1");
 
-  // Clouds wait in the tf filter (never in a callback) until their transform is there. The
+  // Messages wait in the tf filter (never in a callback) until their transform is there. The
   // filter delivers through nh's callback queue, so processing runs in the node's own threads.
-  tf_filter_ = std::make_unique<tf2_ros::MessageFilter<Cloud>>(tf_buffer_, params_.reference_frame,
-                                                               static_cast<std::uint32_t>(queue_size_), nh_);
-  tf_filter_->registerCallback([this](const Cloud::ConstPtr& cloud) { process(cloud); });
-  tf_filter_->registerFailureCallback(
-    [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
-      transformFailed(cloud, reason);
-    });
-  cloud_sub_.registerCallback([this](const Cloud::ConstPtr& cloud) { cloudArrived(cloud); });
+  const auto queue = static_cast<std::uint32_t>(queue_size_);
+  if (input_ == DepthInput::Cloud)
+  {
+    cloud_filter_ = std::make_unique<tf2_ros::MessageFilter<Cloud>>(tf_buffer_, params_.reference_frame, queue, nh_);
+    cloud_filter_->registerCallback([this](const Cloud::ConstPtr& cloud) { process(cloud); });
+    cloud_filter_->registerFailureCallback(
+      [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+        transformFailed(cloud, reason);
+      });
+    cloud_sub_.registerCallback([this](const Cloud::ConstPtr& cloud) { arrived(cloud, nullptr, *cloud_filter_); });
+  }
+  else
+  {
+    image_filter_ = std::make_unique<tf2_ros::MessageFilter<Image>>(tf_buffer_, params_.reference_frame, queue, nh_);
+    image_filter_->registerCallback([this](const Image::ConstPtr& image) { process(image); });
+    image_filter_->registerFailureCallback(
+      [this](const Image::ConstPtr& image, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
+        transformFailed(image, reason);
+      });
+    image_sync_ = std::make_unique<ImageSync>(message_filters::sync_policies::ExactTime<Image, CameraInfo>(queue),
+                                              image_sub_, info_sub_);
+    // boost::bind: the synchronizer's signals pass nine arguments, the unused ones NullType.
+    using boost::placeholders::_1;
+    using boost::placeholders::_2;
+    image_sync_->registerCallback(boost::bind(&DepthFilterScanConverter::imageArrived, this, _1, _2));
+    image_sync_->registerDropCallback(boost::bind(&DepthFilterScanConverter::imageDropped, this, _1, _2));
+  }
 
   reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<Config>>(private_nh_);
   reconfigure_server_->setCallback([this](Config& config, std::uint32_t level) { reconfigure(config, level); });
 
-  updater_.setHardwareID("depth_filter_scan_converter");
+  updater_.setHardwareID(private_nh_.getNamespace());  // the node's name: one converter per camera
   updater_.add("Input and processing", this, &DepthFilterScanConverter::diagnose);
   last_report_ = ros::WallTime::now();
   diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { updater_.update(); });
@@ -108,6 +135,8 @@ DepthFilterScanConverter::~DepthFilterScanConverter()
   // Stop the input first: no callback may reach a half-destroyed object.
   std::lock_guard<std::mutex> lock(connect_mutex_);
   cloud_sub_.unsubscribe();
+  image_sub_.unsubscribe();
+  info_sub_.unsubscribe();
   diagnostics_timer_.stop();
 }
 
@@ -115,55 +144,133 @@ void DepthFilterScanConverter::connectCallback()
 {
   std::lock_guard<std::mutex> lock(connect_mutex_);
   const bool listeners = scan_pub_.getNumSubscribers() > 0 || (cloud_pub_ && cloud_pub_.getNumSubscribers() > 0);
+  const auto queue = static_cast<std::uint32_t>(queue_size_);
   if (listeners && !subscribed_)
   {
-    cloud_sub_.subscribe(nh_, "cloud_in", static_cast<std::uint32_t>(queue_size_));
+    if (input_ == DepthInput::Cloud)
+    {
+      cloud_sub_.subscribe(nh_, "cloud_in", queue);
+    }
+    else
+    {
+      image_sub_.subscribe(nh_, "image", queue);
+      info_sub_.subscribe(nh_, "camera_info", queue);
+    }
     subscribed_ = true;
   }
   else if (!listeners && subscribed_)
   {
     cloud_sub_.unsubscribe();
+    image_sub_.unsubscribe();
+    info_sub_.unsubscribe();
     subscribed_ = false;
   }
 }
 
-void DepthFilterScanConverter::cloudArrived(const Cloud::ConstPtr& cloud)
+template <class M>
+void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message, const CameraInfo::ConstPtr& info,
+                                       tf2_ros::MessageFilter<M>& filter)
 {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++received_;
-    arrivals_.emplace_back(cloud.get(), ros::Time::now());
-    // Clouds leave the filter's queue (processed or dropped) in arrival order at the latest
+    // Checked before tf2 sees the header: tf2 adds durations to the stamp (roscpp throws past
+    // 2^32 s, which would abort the whole manager) and warns without throttle on bad frame ids.
+    const std::string problem = headerProblem(message->header);
+    if (!problem.empty())
+    {
+      dropMalformed(problem, message->header.frame_id);
+      return;
+    }
+    arrivals_.push_back({ message.get(), ros::Time::now(), info });
+    // Messages leave the filter's queue (processed or dropped) in arrival order at the latest
     // after queue_size newer ones: older records are of no use.
     while (arrivals_.size() > static_cast<std::size_t>(2 * queue_size_))
       arrivals_.pop_front();
   }
-  tf_filter_->add(cloud);
+  filter.add(message);
 }
 
-bool DepthFilterScanConverter::takeArrival(const Cloud* cloud, ros::Time& arrival)
+void DepthFilterScanConverter::imageArrived(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info)
+{
+  arrived(image, info, *image_filter_);
+}
+
+void DepthFilterScanConverter::imageDropped(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info)
+{
+  if (!image || info)
+    return;  // a camera_info without its image: nothing of ours is lost
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++received_;
+  ++without_info_;
+  if (due(warned_info_))
+    ROS_WARN(
+      "[%s] dropped a depth image on %s (stamp %s): no camera_info with its stamp came on %s before a "
+      "newer frame's did, or within queue_size (%d) frames",
+      private_nh_.getNamespace().c_str(), input_topic_.c_str(),
+      stampText(image->header.stamp.sec, image->header.stamp.nsec).c_str(), nh_.resolveName("camera_info").c_str(),
+      queue_size_);
+}
+
+std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& header)
+{
+  if (header.frame_id.empty())
+    return "empty frame_id (stamp " + stampText(header.stamp.sec, header.stamp.nsec) + ")";
+  const std::string stamp_problem =
+    stampProblem(header.stamp.sec, header.stamp.nsec, params_.tf_buffer_duration + params_.transform_tolerance);
+  if (!stamp_problem.empty())
+    return stamp_problem;
+  bool had_slash = false;
+  tfFrameId(header.frame_id, &had_slash);
+  if (had_slash && !warned_slash_)
+  {
+    // tf2_ros's MessageFilter strips it too; say it once, then use the frame without it.
+    warned_slash_ = true;
+    ROS_WARN("[%s] frame_id '%s' on %s starts with '/', which tf2 does not accept: using '%s' (said once)",
+             private_nh_.getNamespace().c_str(), header.frame_id.c_str(), input_topic_.c_str(),
+             tfFrameId(header.frame_id).c_str());
+  }
+  return {};
+}
+
+void DepthFilterScanConverter::dropMalformed(const std::string& reason, const std::string& frame_id)
+{
+  ++malformed_;
+  // A new kind of defect is reported at once, the same one again at most every 5 s.
+  if (reason != last_malformed_reason_)
+    warned_malformed_ = ros::WallTime();
+  last_malformed_reason_ = reason;
+  if (due(warned_malformed_))
+    ROS_WARN("[%s] dropped a malformed %s on %s (frame '%s'): %s", private_nh_.getNamespace().c_str(),
+             input_ == DepthInput::Cloud ? "cloud" : "depth image", input_topic_.c_str(), frame_id.c_str(),
+             reason.c_str());
+}
+
+bool DepthFilterScanConverter::takeArrival(const void* message, Arrival& arrival)
 {
   for (auto it = arrivals_.begin(); it != arrivals_.end(); ++it)
-    if (it->first == cloud)
+    if (it->message == message)
     {
-      arrival = it->second;
+      arrival = *it;
       arrivals_.erase(it);
       return true;
     }
   return false;
 }
 
-void DepthFilterScanConverter::transformFailed(const Cloud::ConstPtr& cloud,
+template <class M>
+void DepthFilterScanConverter::transformFailed(const boost::shared_ptr<const M>& cloud,
                                                tf2_ros::filter_failure_reasons::FilterFailureReason reason)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   ++tf_failures_;
-  ros::Time arrival;
+  Arrival arrival;
   takeArrival(cloud.get(), arrival);
+  last_tf_reason_ = failureText(reason);
   if (due(warned_tf_))
-    ROS_WARN("[%s] dropped a cloud: no transform %s -> %s at %.3f: %s", private_nh_.getNamespace().c_str(),
-             cloud->header.frame_id.c_str(), params_.reference_frame.c_str(), cloud->header.stamp.toSec(),
-             failureText(reason));
+    ROS_WARN("[%s] dropped a cloud: no transform %s -> %s at %s: %s", private_nh_.getNamespace().c_str(),
+             cloud->header.frame_id.c_str(), params_.reference_frame.c_str(),
+             stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec).c_str(), last_tf_reason_.c_str());
 }
 
 bool DepthFilterScanConverter::due(ros::WallTime& last, double period)
@@ -175,17 +282,50 @@ bool DepthFilterScanConverter::due(ros::WallTime& last, double period)
   return true;
 }
 
-void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
+std::string DepthFilterScanConverter::viewOf(const Cloud& cloud, const Arrival& /*arrival*/, CloudView& view)
+{
+  CloudLayout layout;
+  layout.width = cloud.width;
+  layout.height = cloud.height;
+  layout.point_step = cloud.point_step;
+  layout.row_step = cloud.row_step;
+  layout.is_bigendian = cloud.is_bigendian;
+  for (const auto& f : cloud.fields)
+    layout.fields.push_back({ f.name, f.offset, f.datatype, f.count });
+  std::string intensity_note;
+  const std::string reason =
+    makeCloudView(layout, cloud.data.data(), cloud.data.size(), params_.intensity_field, view, &intensity_note);
+  if (reason.empty() && !intensity_note.empty() && due(warned_intensity_, 30.0))
+    ROS_WARN("[%s] %s: the scan has no intensities", private_nh_.getNamespace().c_str(), intensity_note.c_str());
+  return reason;
+}
+
+std::string DepthFilterScanConverter::viewOf(const Image& image, const Arrival& arrival, DepthImageView& view)
+{
+  if (!arrival.info)
+    return "no camera_info for this image";
+  const CameraInfo& info = *arrival.info;
+  CameraModel model;
+  model.width = info.width;
+  model.height = info.height;
+  std::copy(info.K.begin(), info.K.end(), model.K);
+  std::copy(info.P.begin(), info.P.end(), model.P);
+  const ImageLayout layout{ image.width, image.height, image.step, image.encoding, image.is_bigendian != 0 };
+  return makeDepthImageView(layout, image.data.data(), image.data.size(), model, params_.depth_image_rectified, view);
+}
+
+template <class M>
+void DepthFilterScanConverter::process(const boost::shared_ptr<const M>& cloud)
 {
   const auto start = std::chrono::steady_clock::now();
   std::lock_guard<std::mutex> lock(mutex_);
   const std::string& name = private_nh_.getNamespace();
 
   // "How long a cloud may wait for its transform": a late scan is worse than none for a planner.
-  ros::Time arrival;
+  Arrival arrival;
   if (takeArrival(cloud.get(), arrival))
   {
-    const double waited = (ros::Time::now() - arrival).toSec();
+    const double waited = (ros::Time::now() - arrival.time).toSec();
     if (waited > params_.transform_tolerance)
     {
       ++stale_;
@@ -197,42 +337,24 @@ void DepthFilterScanConverter::process(const Cloud::ConstPtr& cloud)
     }
   }
 
-  CloudLayout layout;
-  layout.width = cloud->width;
-  layout.height = cloud->height;
-  layout.point_step = cloud->point_step;
-  layout.row_step = cloud->row_step;
-  layout.is_bigendian = cloud->is_bigendian;
-  for (const auto& f : cloud->fields)
-    layout.fields.push_back({ f.name, f.offset, f.datatype, f.count });
-  CloudView view;
-  std::string intensity_note;
-  const std::string reason =
-    makeCloudView(layout, cloud->data.data(), cloud->data.size(), params_.intensity_field, view, &intensity_note);
+  std::conditional_t<std::is_same_v<M, Image>, DepthImageView, CloudView> view;
+  const std::string reason = viewOf(*cloud, arrival, view);
   if (!reason.empty())
   {
-    ++malformed_;
-    // A new kind of defect is reported at once, the same one again at most every 5 s.
-    if (reason != last_malformed_reason_)
-      warned_malformed_ = ros::WallTime();
-    last_malformed_reason_ = reason;
-    if (due(warned_malformed_))
-      ROS_WARN("[%s] dropped a malformed cloud (frame '%s'): %s", name.c_str(), cloud->header.frame_id.c_str(),
-               reason.c_str());
+    dropMalformed(reason, cloud->header.frame_id);
     return;
   }
-  if (!intensity_note.empty() && due(warned_intensity_, 30.0))
-    ROS_WARN("[%s] %s: the scan has no intensities", name.c_str(), intensity_note.c_str());
 
   Eigen::Isometry3d camera_to_reference;
   try
   {
     camera_to_reference = tf2::transformToEigen(
-      tf_buffer_.lookupTransform(params_.reference_frame, cloud->header.frame_id, cloud->header.stamp));
+      tf_buffer_.lookupTransform(params_.reference_frame, tfFrameId(cloud->header.frame_id), cloud->header.stamp));
   }
   catch (const tf2::TransformException& e)
   {
     ++tf_failures_;
+    last_tf_reason_ = e.what();
     if (due(warned_tf_))
       ROS_WARN("[%s] dropped a cloud: %s", name.c_str(), e.what());
     return;
@@ -334,13 +456,27 @@ void DepthFilterScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrap
   const ros::WallTime now = ros::WallTime::now();
   const double period = std::max((now - last_report_).toSec(), 1e-3);
   const double rate = static_cast<double>(received_ - received_at_last_report_) / period;
-  const std::uint64_t problems = tf_failures_ + malformed_ + stale_;
   const bool subscribed = subscribed_;
 
-  if (problems > problems_at_last_report_)
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "clouds dropped (transform, malformed or late)");
+  // The summary names what dropped clouds since the last update, with the last reason of each.
+  std::string dropped;
+  auto add_cause = [&dropped](std::uint64_t now_count, std::uint64_t before, const char* what,
+                              const std::string& last) {
+    if (now_count == before)
+      return;
+    dropped += (dropped.empty() ? "dropped " : "; ") + std::to_string(now_count - before) + " " + what;
+    if (!last.empty())
+      dropped += " (last: " + last + ")";
+  };
+  add_cause(malformed_, malformed_at_last_report_, "malformed", last_malformed_reason_);
+  add_cause(tf_failures_, tf_failures_at_last_report_, "without transform", last_tf_reason_);
+  add_cause(stale_, stale_at_last_report_, "late (transform_tolerance)", "");
+  add_cause(without_info_, without_info_at_last_report_, "depth images without camera_info", "");
+
+  if (!dropped.empty())
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, dropped);
   else if (subscribed && rate == 0.0)
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "subscribed, but no cloud arrives on cloud_in");
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "subscribed, but nothing arrives on " + input_topic_);
   else
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, subscribed ? "converting" : "idle (nobody listens)");
 
@@ -354,9 +490,38 @@ void DepthFilterScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrap
   status.add("transform failures", tf_failures_);
   status.add("late clouds dropped (transform_tolerance)", stale_);
   status.add("malformed clouds dropped", malformed_);
+  if (input_ == DepthInput::Image)
+    status.add("depth images without camera_info", without_info_);
+  status.add("last malformed reason", last_malformed_reason_);
+  status.add("last transform failure", last_tf_reason_);
   received_at_last_report_ = received_;
-  problems_at_last_report_ = problems;
+  malformed_at_last_report_ = malformed_;
+  tf_failures_at_last_report_ = tf_failures_;
+  stale_at_last_report_ = stale_;
+  without_info_at_last_report_ = without_info_;
   last_report_ = now;
 }
 
+}  // namespace depth_filter_scan_converter
+
+namespace depth_filter_scan_converter
+{
+int runNode(int argc, char** argv, const char* name, DepthInput input)
+{
+  ros::init(argc, argv, name);
+  // Handles live outside the try: if the last one died with the converter, roscpp would shut
+  // down rosconsole and the fatal message below would never be printed.
+  ros::NodeHandle nh, private_nh("~");
+  try
+  {
+    DepthFilterScanConverter converter(nh, private_nh, input);
+    ros::spin();
+  }
+  catch (const std::invalid_argument& e)
+  {
+    ROS_FATAL("not starting: %s", e.what());
+    return 1;
+  }
+  return 0;
+}
 }  // namespace depth_filter_scan_converter

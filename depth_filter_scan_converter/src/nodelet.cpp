@@ -8,14 +8,16 @@
 
 namespace depth_filter_scan_converter
 {
-class DepthFilterScanConverterNodelet : public nodelet::Nodelet
+/// The converter in a nodelet manager; kInput says what it reads.
+template <DepthInput kInput>
+class ConverterNodelet : public nodelet::Nodelet
 {
 private:
   void onInit() override
   {
     try
     {
-      converter_ = std::make_unique<DepthFilterScanConverter>(getNodeHandle(), getPrivateNodeHandle());
+      converter_ = std::make_unique<DepthFilterScanConverter>(getNodeHandle(), getPrivateNodeHandle(), kInput);
     }
     catch (const std::invalid_argument& e)
     {
@@ -26,6 +28,14 @@ private:
 
   std::unique_ptr<DepthFilterScanConverter> converter_;
 };
+
+/// PointCloud2 on cloud_in -> scan.
+class DepthFilterScanConverterNodelet : public ConverterNodelet<DepthInput::Cloud>
+{};
+/// Depth image on image + camera_info -> scan.
+class DepthImageScanConverterNodelet : public ConverterNodelet<DepthInput::Image>
+{};
 }  // namespace depth_filter_scan_converter
 
 PLUGINLIB_EXPORT_CLASS(depth_filter_scan_converter::DepthFilterScanConverterNodelet, nodelet::Nodelet)
+PLUGINLIB_EXPORT_CLASS(depth_filter_scan_converter::DepthImageScanConverterNodelet, nodelet::Nodelet)

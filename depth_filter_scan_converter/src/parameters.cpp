@@ -58,4 +58,9 @@ float Parameters::noReturnValue() const
   return use_inf ? std::numeric_limits<float>::infinity() : static_cast<float>(range_max + inf_epsilon);
 }
 
+float Parameters::tooCloseValue() const
+{
+  return too_close_at_range_min ? static_cast<float>(range_min) : -std::numeric_limits<float>::infinity();
+}
+
 }  // namespace depth_filter_scan_converter

@@ -80,6 +80,7 @@ struct Projector::Frame
   float a_min, inv_inc;  // exact angle_min for the bin formula
   int beams;
   std::uint32_t row_stride, column_stride;
+  bool hole;  // hole detection on, and the camera above the floor
 };
 
 Projector::Projector(const Parameters& params)
@@ -96,6 +97,9 @@ void Projector::setParameters(const Parameters& params)
 namespace
 {
 constexpr std::uint32_t kChunk = 256;
+// Rejected points go to one of these slots after the last beam, spread by index so that pass 3
+// can update the minimum without a branch and without one long chain of stores to one slot.
+constexpr std::int32_t kScratchSlots = 8;
 
 // One chunk of points of a row, as plain float arrays (structure of arrays).
 struct alignas(64) Chunk
@@ -104,26 +108,14 @@ struct alignas(64) Chunk
   std::int32_t bins[kChunk];
 };
 
-// Passes 1 and 2 of Projector::run for n points starting at p, col_step bytes apart:
-//   1. gather x, y, z from the strided buffer (any point_step, float or double);
-//   2. transform, band / hole / range / angle tests, beam index. A rejected point gets an
-//      infinite squared range, so that pass 3 never keeps it. xs/ys/zs are overwritten with
-//      the point in the reference frame (for the filtered cloud).
-// Non-short-circuit & and selects only: no branch, so the compiler vectorizes pass 2.
-// kStep > 0 fixes the distance between points at compile time (the common 16- and 32-byte
-// layouts), which lets the compiler vectorize the gather as well.
-template <typename T, bool kHole, std::size_t kStep>
-__attribute__((always_inline)) inline void chunkKernel(const std::uint8_t* p, std::size_t col_step, std::uint32_t xo,
-                                                       std::uint32_t yo, std::uint32_t zo, std::uint32_t n,
-                                                       const Projector::Frame& f, Chunk& c)
+// Pass 2 of the projection, on n points already gathered into c.xs/ys/zs (camera frame):
+// transform, band / hole / range / angle tests, beam index. A rejected point gets an infinite
+// squared range and a scratch slot after the last beam, so that pass 3 never keeps it.
+// xs/ys/zs are overwritten with the point in the reference frame (for the filtered cloud).
+// Non-short-circuit & and selects only: no branch, so the compiler vectorizes it.
+template <bool kHole>
+__attribute__((always_inline)) inline void transformChunk(std::uint32_t n, const Projector::Frame& f, Chunk& c)
 {
-  const std::size_t step = kStep > 0 ? kStep : col_step;
-  for (std::uint32_t i = 0; i < n; ++i)
-  {
-    c.xs[i] = load<T>(p + i * step + xo);
-    c.ys[i] = load<T>(p + i * step + yo);
-    c.zs[i] = load<T>(p + i * step + zo);
-  }
   const float inf = std::numeric_limits<float>::infinity();
   const float last_beam = static_cast<float>(f.beams - 1);
   for (std::uint32_t i = 0; i < n; ++i)
@@ -145,9 +137,10 @@ __attribute__((always_inline)) inline void chunkKernel(const std::uint8_t* p, st
       zr = hole ? f.floor_z : zr;
       ok = ok | hole;
     }
-    // Squared ranges: the square root is taken once per beam at the end.
+    // Squared ranges: the square root is taken once per beam at the end. No range_min test
+    // here: a point that is too close is the beam's closest obstacle, reported at the end.
     const float r2 = xr * xr + yr * yr;
-    ok = ok & (r2 >= f.r2_min) & (r2 <= f.r2_max);
+    ok = ok & (r2 <= f.r2_max);
     const float a = fastAtan2(yr, xr);
     ok = ok & (a >= f.a_lo) & (a <= f.a_hi);
     // Clamp before converting (NaN -> 0): the bounds check of the beam index, which also keeps a
@@ -155,12 +148,54 @@ __attribute__((always_inline)) inline void chunkKernel(const std::uint8_t* p, st
     float fb = (a - f.a_min) * f.inv_inc + 0.5f;
     fb = fb > 0.0f ? fb : 0.0f;
     fb = fb < last_beam ? fb : last_beam;
-    c.bins[i] = ok ? static_cast<std::int32_t>(fb) : 0;
+    c.bins[i] = ok ? static_cast<std::int32_t>(fb) : f.beams + static_cast<std::int32_t>(i % kScratchSlots);
     c.r2s[i] = ok ? r2 : inf;
     c.xs[i] = xr;
     c.ys[i] = yr;
     c.zs[i] = zr;
   }
+}
+
+// Passes 1 and 2 for n cloud points starting at p, col_step bytes apart: gather x, y, z from
+// the strided buffer (any point_step, float or double), then transformChunk.
+// kStep > 0 fixes the distance between points at compile time (the common 16- and 32-byte
+// layouts), which lets the compiler vectorize the gather as well.
+template <typename T, bool kHole, std::size_t kStep>
+__attribute__((always_inline)) inline void chunkKernel(const std::uint8_t* p, std::size_t col_step, std::uint32_t xo,
+                                                       std::uint32_t yo, std::uint32_t zo, std::uint32_t n,
+                                                       const Projector::Frame& f, Chunk& c)
+{
+  const std::size_t step = kStep > 0 ? kStep : col_step;
+  for (std::uint32_t i = 0; i < n; ++i)
+  {
+    c.xs[i] = load<T>(p + i * step + xo);
+    c.ys[i] = load<T>(p + i * step + yo);
+    c.zs[i] = load<T>(p + i * step + zo);
+  }
+  transformChunk<kHole>(n, f, c);
+}
+
+// Passes 1 and 2 for n depth pixels of one row starting at p, col_step bytes apart: the point
+// of each pixel, then transformChunk. du[i] = u - cx of pixel i, dv = v - cy of the row;
+// kx = unit / fx, ky = unit / fy, unit = metres per depth unit. The same float operations in the
+// same order as depth_image_proc::convert, so a scan from the image equals the scan from
+// point_cloud_xyz's cloud bit for bit. No depth (0, NaN, Inf) gives a NaN point.
+template <typename D, bool kHole>
+__attribute__((always_inline)) inline void depthChunkKernel(const std::uint8_t* p, std::size_t col_step,
+                                                            const float* du, float dv, float kx, float ky, float unit,
+                                                            std::uint32_t n, const Projector::Frame& f, Chunk& c)
+{
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  for (std::uint32_t i = 0; i < n; ++i)
+  {
+    const float d = load<D>(p + i * col_step);
+    const bool valid = (d > 0.0f) & (d < inf);
+    c.xs[i] = valid ? du[i] * d * kx : nan;
+    c.ys[i] = valid ? dv * d * ky : nan;
+    c.zs[i] = valid ? d * unit : nan;
+  }
+  transformChunk<kHole>(n, f, c);
 }
 
 // The kernels are compiled twice and picked at load time by the CPU (ifunc): AVX2+FMA where
@@ -185,6 +220,50 @@ DFSC_KERNEL(kernelFloat32Hole, float, true, 32)
 DFSC_KERNEL(kernelDouble, double, false, 0)
 DFSC_KERNEL(kernelDoubleHole, double, true, 0)
 #undef DFSC_KERNEL
+#define DFSC_DEPTH_KERNEL(NAME, D, HOLE)                                                                            \
+  DFSC_CLONES void NAME(const std::uint8_t* p, std::size_t col_step, const float* du, float dv, float kx, float ky, \
+                        float unit, std::uint32_t n, const Projector::Frame& f, Chunk& c)                           \
+  {                                                                                                                 \
+    depthChunkKernel<D, HOLE>(p, col_step, du, dv, kx, ky, unit, n, f, c);                                          \
+  }
+DFSC_DEPTH_KERNEL(kernelDepthMm, std::uint16_t, false)
+DFSC_DEPTH_KERNEL(kernelDepthMmHole, std::uint16_t, true)
+DFSC_DEPTH_KERNEL(kernelDepthMetres, float, false)
+DFSC_DEPTH_KERNEL(kernelDepthMetresHole, float, true)
+#undef DFSC_DEPTH_KERNEL
+
+using DepthKernel = void (*)(const std::uint8_t*, std::size_t, const float*, float, float, float, float, std::uint32_t,
+                             const Projector::Frame&, Chunk&);
+
+// Pass 3: each beam keeps its closest point. Without indices a select, no branch: noisy depth
+// makes "closer than the beam's best" a coin toss that a branch predictor cannot learn.
+template <bool kIndex, bool kKeep>
+__attribute__((always_inline)) inline void keepClosest(const Chunk& c, std::uint32_t n, std::uint32_t first_index,
+                                                       std::uint32_t index_step, float* best, std::uint32_t* best_index,
+                                                       std::vector<float>* kept)
+{
+  const float inf = std::numeric_limits<float>::infinity();
+  for (std::uint32_t i = 0; i < n; ++i)
+  {
+    const std::int32_t b = c.bins[i];
+    if (!kIndex)
+    {
+      const float r2 = c.r2s[i], current = best[b];
+      best[b] = r2 < current ? r2 : current;
+    }
+    else if (c.r2s[i] < best[b])
+    {
+      best[b] = c.r2s[i];
+      best_index[b] = first_index + i * index_step;
+    }
+    if (kKeep && c.r2s[i] < inf)
+    {
+      kept->push_back(c.xs[i]);
+      kept->push_back(c.ys[i]);
+      kept->push_back(c.zs[i]);
+    }
+  }
+}
 
 using Kernel = void (*)(const std::uint8_t*, std::size_t, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t,
                         const Projector::Frame&, Chunk&);
@@ -212,12 +291,11 @@ template <typename T, bool kHole, bool kIndex, bool kKeep>
 void Projector::run(const CloudView& v, const Frame& f, std::vector<float>* kept)
 {
   // Chunks of one row go through the branch-free kernel (passes 1 and 2), then pass 3 keeps
-  // the closest point per beam: the only data-dependent branch.
+  // the closest point per beam (keepClosest).
   Chunk c;
   float* const best = best_r2_.data();
   std::uint32_t* const best_index = best_index_.data();
   const std::size_t col_step = static_cast<std::size_t>(v.point_step) * f.column_stride;
-  const float inf = std::numeric_limits<float>::infinity();
   const Kernel kernel = pickKernel<T, kHole>(col_step);
 
   for (std::uint32_t r = 0; r < v.height; r += f.row_stride)
@@ -227,22 +305,39 @@ void Projector::run(const CloudView& v, const Frame& f, std::vector<float>* kept
     {
       const std::uint32_t n = std::min(kChunk, (v.width - c0 + f.column_stride - 1) / f.column_stride);
       kernel(row + static_cast<std::size_t>(c0) * v.point_step, col_step, v.x_offset, v.y_offset, v.z_offset, n, f, c);
-      for (std::uint32_t i = 0; i < n; ++i)
-      {
-        const std::int32_t b = c.bins[i];
-        if (c.r2s[i] < best[b])
-        {
-          best[b] = c.r2s[i];
-          if (kIndex)
-            best_index[b] = r * v.width + c0 + i * f.column_stride;
-        }
-        if (kKeep && c.r2s[i] < inf)
-        {
-          kept->push_back(c.xs[i]);
-          kept->push_back(c.ys[i]);
-          kept->push_back(c.zs[i]);
-        }
-      }
+      keepClosest<kIndex, kKeep>(c, n, r * v.width + c0, f.column_stride, best, best_index, kept);
+    }
+  }
+}
+
+template <bool kHole, bool kKeep>
+void Projector::runDepth(const DepthImageView& v, const Frame& f, std::vector<float>* kept)
+{
+  const bool mm = v.encoding == DepthEncoding::UInt16Millimetres;
+  const DepthKernel kernel =
+    mm ? (kHole ? kernelDepthMmHole : kernelDepthMm) : (kHole ? kernelDepthMetresHole : kernelDepthMetres);
+  const std::size_t col_step = static_cast<std::size_t>(mm ? 2 : 4) * f.column_stride;
+  // As depth_image_proc: metres per unit in float, the factors unit / f in double, then float.
+  const float unit = mm ? 0.001f : 1.0f;
+  const float kx = static_cast<float>(static_cast<double>(unit) / v.intrinsics.fx);
+  const float ky = static_cast<float>(static_cast<double>(unit) / v.intrinsics.fy);
+  const float cx = static_cast<float>(v.intrinsics.cx);
+  const float cy = static_cast<float>(v.intrinsics.cy);
+  column_offsets_.clear();
+  for (std::uint32_t u = 0; u < v.width; u += f.column_stride)
+    column_offsets_.push_back(static_cast<float>(static_cast<int>(u)) - cx);
+
+  Chunk c;
+  float* const best = best_r2_.data();
+  for (std::uint32_t r = 0; r < v.height; r += f.row_stride)
+  {
+    const std::uint8_t* const row = v.data + static_cast<std::size_t>(r) * v.row_step;
+    const float dv = static_cast<float>(static_cast<int>(r)) - cy;
+    for (std::uint32_t k0 = 0; k0 < column_offsets_.size(); k0 += kChunk)
+    {
+      const std::uint32_t n = std::min<std::uint32_t>(kChunk, static_cast<std::uint32_t>(column_offsets_.size()) - k0);
+      kernel(row + k0 * col_step, col_step, column_offsets_.data() + k0, dv, kx, ky, unit, n, f, c);
+      keepClosest<false, kKeep>(c, n, 0, 0, best, nullptr, kept);
     }
   }
 }
@@ -266,15 +361,11 @@ void Projector::dispatchOutputs(const CloudView& cloud, const Frame& frame, bool
   }
 }
 
-void Projector::project(const CloudView& cloud, const Eigen::Isometry3d& camera_to_reference,
-                        std::vector<float>& ranges, std::vector<float>* intensities, std::vector<float>* kept_points)
+Projector::Frame Projector::start(const Eigen::Isometry3d& camera_to_reference, std::vector<float>* kept_points)
 {
   const Parameters& p = params_;
   const int beams = static_cast<int>(p.beamCount());
-  best_r2_.assign(beams, std::numeric_limits<float>::infinity());
-  const bool want_index = intensities && cloud.has_intensity;
-  if (want_index)
-    best_index_.assign(beams, 0);
+  best_r2_.assign(beams + kScratchSlots, std::numeric_limits<float>::infinity());
   if (kept_points)
     kept_points->clear();
 
@@ -297,9 +388,46 @@ void Projector::project(const CloudView& cloud, const Eigen::Isometry3d& camera_
   f.beams = beams;
   f.row_stride = static_cast<std::uint32_t>(p.row_stride);
   f.column_stride = static_cast<std::uint32_t>(p.column_stride);
-
   // A ray from a camera at or below the floor never meets the floor in front of it.
-  const bool hole = p.hole_detection && t.z() > p.floor_height;
+  f.hole = p.hole_detection && t.z() > p.floor_height;
+  return f;
+}
+
+void Projector::finish(const Frame& f, std::vector<float>& ranges)
+{
+  const Parameters& p = params_;
+  ranges.resize(f.beams);
+  const float no_return = p.noReturnValue();
+  const float too_close = p.tooCloseValue();
+  for (int b = 0; b < f.beams; ++b)
+    ranges[b] = std::isinf(best_r2_[b]) ? no_return : best_r2_[b] < f.r2_min ? too_close : std::sqrt(best_r2_[b]);
+}
+
+void Projector::project(const DepthImageView& image, const Eigen::Isometry3d& camera_to_reference,
+                        std::vector<float>& ranges, std::vector<float>* intensities, std::vector<float>* kept_points)
+{
+  const Frame f = start(camera_to_reference, kept_points);
+  if (image.size() > 0 && image.data)
+  {
+    if (f.hole)
+      kept_points ? runDepth<true, true>(image, f, kept_points) : runDepth<true, false>(image, f, kept_points);
+    else
+      kept_points ? runDepth<false, true>(image, f, kept_points) : runDepth<false, false>(image, f, kept_points);
+  }
+  finish(f, ranges);
+  if (intensities)
+    intensities->clear();
+}
+
+void Projector::project(const CloudView& cloud, const Eigen::Isometry3d& camera_to_reference,
+                        std::vector<float>& ranges, std::vector<float>* intensities, std::vector<float>* kept_points)
+{
+  const Frame f = start(camera_to_reference, kept_points);
+  const int beams = f.beams;
+  const bool want_index = intensities && cloud.has_intensity;
+  if (want_index)
+    best_index_.assign(beams + kScratchSlots, 0);
+  const bool hole = f.hole;
   if (cloud.size() > 0 && cloud.data)
   {
     if (cloud.xyz_type == FieldType::Float64)
@@ -318,10 +446,7 @@ void Projector::project(const CloudView& cloud, const Eigen::Isometry3d& camera_
     }
   }
 
-  ranges.resize(beams);
-  const float no_return = p.noReturnValue();
-  for (int b = 0; b < beams; ++b)
-    ranges[b] = std::isinf(best_r2_[b]) ? no_return : std::sqrt(best_r2_[b]);
+  finish(f, ranges);
 
   if (intensities)
   {

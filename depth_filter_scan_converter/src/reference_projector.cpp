@@ -42,7 +42,7 @@ void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isom
         range = std::hypot(q.x(), q.y());
         angle = std::atan2(q.y(), q.x());
       }
-      if (range < p.range_min || range > p.range_max || angle < p.angle_min || angle > p.angle_max)
+      if (range > p.range_max || angle < p.angle_min || angle > p.angle_max)
         continue;
       std::size_t bin = static_cast<std::size_t>(std::lround((angle - p.angle_min) / p.angle_increment));
       if (bin >= beams)
@@ -57,7 +57,9 @@ void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isom
   }
   const float no_return = p.noReturnValue();
   for (std::size_t b = 0; b < beams; ++b)
-    ranges[b] = std::isinf(best[b]) ? no_return : static_cast<float>(best[b]);
+    ranges[b] = std::isinf(best[b])     ? no_return
+                : best[b] < p.range_min ? p.tooCloseValue()
+                                        : static_cast<float>(best[b]);
 }
 
 }  // namespace depth_filter_scan_converter

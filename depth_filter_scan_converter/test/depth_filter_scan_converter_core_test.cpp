@@ -13,6 +13,7 @@
 
 #include "depth_filter_scan_converter/cloud_view.h"
 #include "depth_filter_scan_converter/fast_atan2.h"
+#include "depth_filter_scan_converter/header_check.h"
 #include "depth_filter_scan_converter/parameters.h"
 #include "depth_filter_scan_converter/projector.h"
 #include "cloud_fixtures.h"
@@ -52,7 +53,7 @@ std::size_t countDisagreements(const std::vector<float>& a, const std::vector<fl
   std::size_t n = 0;
   for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
   {
-    if (std::isinf(a[i]) && std::isinf(b[i]))
+    if (std::isinf(a[i]) && a[i] == b[i])  // +Inf (no return) and -Inf (too close) differ
       continue;
     if (!(std::fabs(a[i] - b[i]) <= tol * std::max(1.0f, std::fabs(b[i]))))
       ++n;
@@ -473,6 +474,40 @@ TEST(Projector, RangeLimitsArePlanarDistances)
   EXPECT_EQ(countFinite(ranges), 2u);
   EXPECT_FLOAT_EQ(ranges[binOf(p, M_PI / 2)], 1.1f);
   EXPECT_FLOAT_EQ(ranges[binOf(p, -M_PI / 2)], 2.9f);
+  EXPECT_EQ(ranges[binOf(p, 0.0)], -std::numeric_limits<float>::infinity());  // 0.9 m: too close
+  EXPECT_EQ(ranges[binOf(p, M_PI)], std::numeric_limits<float>::infinity());  // 3.1 m: beyond range_max
+}
+
+// A person 0.2 m in front of a camera whose range_min is 0.3 m must never read as free space
+// (+Inf): a costmap with inf_is_valid would clear it.
+TEST(Projector, TooCloseIsNegativeInfinityOrRangeMinNeverNoReturn)
+{
+  dfsc::Parameters p;
+  p.range_min = 0.3;
+  // Beam at 0: the person's legs at 0.2 m and the wall behind at 2 m; beam at 1 rad: the wall only.
+  const Points pts = { Vector3d(0.2, 0.0, 0.5), Vector3d(2.0, 0.0, 0.5),
+                       Vector3d(2.0 * std::cos(1.0), 2.0 * std::sin(1.0), 0.5) };
+  const TestCloud cloud = makeCloud(pts);
+  for (bool at_range_min : { false, true })
+  {
+    p.too_close_at_range_min = at_range_min;
+    const std::vector<float> ranges = project(p, cloud, Eigen::Isometry3d::Identity());
+    std::vector<float> ref;
+    dfsc::referenceProject(p, cloud.view(), Eigen::Isometry3d::Identity(), ref);
+    const float too_close = at_range_min ? 0.3f : -std::numeric_limits<float>::infinity();
+    EXPECT_EQ(ranges[binOf(p, 0.0)], too_close);
+    EXPECT_EQ(ref[binOf(p, 0.0)], too_close);
+    EXPECT_FLOAT_EQ(ranges[binOf(p, 1.0)], 2.0f);
+    EXPECT_EQ(countDisagreements(ranges, ref), 0u);
+    // Too close points are obstacles: the filtered cloud shows them.
+    std::vector<float> again, kept;
+    dfsc::Projector(p).project(cloud.view(), Eigen::Isometry3d::Identity(), again, nullptr, &kept);
+    EXPECT_EQ(kept.size(), 9u);
+  }
+  // A point outside the band is no obstacle, however close.
+  p.too_close_at_range_min = false;
+  const std::vector<float> ranges = project(p, makeCloud({ Vector3d(0.2, 0.0, 1.5) }), Eigen::Isometry3d::Identity());
+  EXPECT_EQ(ranges[binOf(p, 0.0)], std::numeric_limits<float>::infinity());
 }
 
 TEST(Projector, IntensityOfTheClosestPoint)
@@ -633,6 +668,32 @@ TEST(CloudValidation, MissingIntensityFieldIsANoteNotAnError)
 }
 
 // ---------------------------------------------------------------- real data
+// ---------------------------------------------------------------- headers
+
+TEST(HeaderCheck, StampsNearTheEndOfRosTimeAreRejected)
+{
+  EXPECT_EQ(dfsc::stampProblem(1700000000u, 999999999u, 10.1), "");
+  EXPECT_EQ(dfsc::stampProblem(0u, 0u, 10.1), "");
+  // The stamp that made roscpp throw "Time is out of dual 32-bit range" inside tf2.
+  const std::string huge = dfsc::stampProblem(4294967295u, 999999999u, 10.1);
+  EXPECT_NE(huge.find("4294967295.999999999"), std::string::npos) << huge;
+  EXPECT_NE(dfsc::stampProblem(4294967295u - 10u, 0u, 10.1), "");
+  EXPECT_EQ(dfsc::stampProblem(4294967295u - 12u, 0u, 10.1), "");
+  EXPECT_NE(dfsc::stampProblem(5u, 1000000000u, 0.0).find("nsecs"), std::string::npos);
+  EXPECT_EQ(dfsc::stampText(3u, 5u), "3.000000005");
+}
+
+TEST(HeaderCheck, OneLeadingSlashIsStrippedAsTf2Does)
+{
+  bool slash = false;
+  EXPECT_EQ(dfsc::tfFrameId("/camera_optical", &slash), "camera_optical");
+  EXPECT_TRUE(slash);
+  EXPECT_EQ(dfsc::tfFrameId("camera_optical", &slash), "camera_optical");
+  EXPECT_FALSE(slash);
+  EXPECT_EQ(dfsc::tfFrameId("", &slash), "");
+  EXPECT_FALSE(slash);
+}
+
 #include "five_people_test.inc"
 
 int main(int argc, char** argv)

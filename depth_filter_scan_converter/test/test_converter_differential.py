@@ -75,8 +75,9 @@ def reference_bounds(p, pts, transform):
         for x, y, sure, maybe in candidates:
             r = np.hypot(x, y)
             a = np.arctan2(y, x)
-            sure = sure & (r >= p.range_min + LEN_EPS) & (r <= p.range_max - LEN_EPS)
-            maybe = maybe & (r >= p.range_min - LEN_EPS) & (r <= p.range_max + LEN_EPS)
+            # No range_min test: a point nearer than range_min is the beam's (too close) obstacle.
+            sure = sure & (r <= p.range_max - LEN_EPS)
+            maybe = maybe & (r <= p.range_max + LEN_EPS)
             # Near the origin a coordinate error turns into a larger angle error.
             ang_eps = ANG_EPS + LEN_EPS / np.maximum(r, 1e-9)
             # atan2 may give -pi for a point at +pi: both ends are one direction.
@@ -102,10 +103,15 @@ def check_against_reference(p, cloud, transform, strided):
     assert not np.isnan(ranges).any()
     lower, upper = reference_bounds(p, strided.reshape(-1, strided.shape[-1])[:, :3], transform)
     no_return = ranges == p.no_return_value()
+    too_close = ranges == p.too_close_value()
     got = np.where(no_return, np.inf, ranges.astype(np.float64))
-    if not p.use_inf:
+    if not p.use_inf and not too_close.any():
         assert np.all(np.isfinite(ranges))
-    bad = ~((got >= lower) & (got <= upper))
+    # A too-close beam needs a candidate nearer than range_min; a beam whose closest sure
+    # candidate is nearer than range_min must read too close (never a range, never no return).
+    close_ok = too_close & (lower <= p.range_min * (1 + RANGE_RTOL) + LEN_EPS)
+    normal_ok = ~too_close & (got >= lower) & (got <= upper) & ~(upper < p.range_min * (1 - RANGE_RTOL) - LEN_EPS)
+    bad = ~(close_ok | normal_ok)
     assert not bad.any(), (
         f"{bad.sum()} beams outside the reference bounds, e.g. beam {np.argmax(bad)}: "
         f"core {got[bad][:5]}, lower {lower[bad][:5]}, upper {upper[bad][:5]}"
@@ -121,7 +127,8 @@ def random_params(rng):
     p.angle_min = rng.uniform(-math.pi, 0.0)
     p.angle_max = rng.uniform(p.angle_min + 0.5, math.pi)
     p.angle_increment = rng.uniform(0.002, 0.05)
-    p.range_min = rng.uniform(0.0, 0.5)
+    p.range_min = rng.uniform(0.0, 1.0)
+    p.too_close_at_range_min = bool(rng.integers(2))
     p.range_max = rng.uniform(2.0, 8.0)
     p.hole_detection = bool(rng.integers(2))
     p.hole_depth = rng.uniform(0.0, 0.2)

@@ -61,12 +61,14 @@ def load_params(env, ns, yaml_text=None, path=SHIPPED):
         subprocess.run(["rosparam", "load", extra, "/" + ns], env=env, check=True)
 
 
-def start(env, name, nodelet=False):
-    cmd = (
-        ["rosrun", "nodelet", "nodelet", "standalone", "depth_filter_scan_converter/DepthFilterScanConverterNodelet"]
-        if nodelet
-        else ["rosrun", "depth_filter_scan_converter", "depth_filter_scan_converter_node"]
-    )
+def start(env, name, nodelet=False, image=False):
+    """The cloud converter, or with image=True the depth-image converter (same parameters)."""
+    if nodelet:
+        kind = "DepthImageScanConverterNodelet" if image else "DepthFilterScanConverterNodelet"
+        cmd = ["rosrun", "nodelet", "nodelet", "standalone", "depth_filter_scan_converter/" + kind]
+    else:
+        node = "depth_image_scan_converter_node" if image else "depth_filter_scan_converter_node"
+        cmd = ["rosrun", "depth_filter_scan_converter", node]
     return subprocess.Popen(cmd + ["__name:=" + name], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 
 
@@ -87,9 +89,10 @@ def wait_for_service(env, service, timeout=20):
     return False
 
 
-def test_shipped_config_starts(ros_env):
+@pytest.mark.parametrize("image", [False, True])
+def test_shipped_config_starts(ros_env, image):
     load_params(ros_env, "conv_ok")
-    p = start(ros_env, "conv_ok")
+    p = start(ros_env, "conv_ok", image=image)
     time.sleep(3.0)
     assert p.poll() is None, stop(p)
     topics = subprocess.run(["rostopic", "list"], env=ros_env, capture_output=True, text=True).stdout.split()
@@ -110,6 +113,8 @@ def test_shipped_config_starts(ros_env):
         ("reference_frame: ''", "reference_frame"),
         ("hole_depth: -0.1", "hole_depth"),
         ("queue_size: 0", "queue_size"),
+        ("depth_image_rectified: 1.5", "depth_image_rectified"),
+        ("too_close_at_range_min: maybe", "too_close_at_range_min"),
     ],
 )
 def test_bad_config_stops_the_node_naming_the_parameter(ros_env, yaml_text, parameter):
@@ -121,6 +126,17 @@ def test_bad_config_stops_the_node_naming_the_parameter(ros_env, yaml_text, para
         pytest.fail("node kept running with a bad configuration: " + stop(p))
     assert p.returncode != 0
     assert "FATAL" in out and "'%s'" % parameter in out, out
+
+
+def test_bad_config_stops_the_depth_image_node_too(ros_env):
+    load_params(ros_env, "image_bad", "min_height: 1.5\nmax_height: 1.0")
+    p = start(ros_env, "image_bad", image=True)
+    try:
+        out, _ = p.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        pytest.fail("node kept running with a bad configuration: " + stop(p))
+    assert p.returncode != 0
+    assert "FATAL" in out and "'min_height'" in out, out
 
 
 def test_bad_config_makes_the_nodelet_report_fatal_and_do_nothing(ros_env):
@@ -187,5 +203,8 @@ def test_diagnostics_are_published(ros_env):
     finally:
         stop(p)
     assert "Input and processing" in r.stdout, r.stdout
-    for key in ("input rate [Hz]", "processing time, mean [ms]", "transform failures", "malformed clouds dropped"):
+    for key in ("input rate [Hz]", "processing time, mean [ms]", "transform failures", "malformed clouds dropped",
+                "last malformed reason", "last transform failure"):
         assert key in r.stdout, key
+    # The hardware id names this converter (one per camera), not the package.
+    assert 'hardware_id: "/conv_diag"' in r.stdout, r.stdout

@@ -48,6 +48,8 @@ CONVERTER = {
     "angle_increment": Key("float", math.pi / 720, "rad", lo=0.0, lo_open=True),
     "range_min": Key("float", 0.0, "m", lo=0.0),
     "range_max": Key("float", 10.0, "m", lo=0.0, lo_open=True),
+    "too_close_at_range_min": Key("bool", False,
+                                  doc="a beam nearer than range_min reads range_min instead of -Inf"),
     "hole_detection": Key("bool", False),
     "hole_depth": Key("float", 0.05, "m", lo=0.0),
     "transform_tolerance": Key("float", 0.1, "s", lo=0.0),
@@ -58,6 +60,8 @@ CONVERTER = {
     "intensity_field": Key("str", ""),
     "publish_filtered_cloud": Key("bool", False),
     "tf_buffer_duration": Key("float", 10.0, "s", lo=0.0, lo_open=True),
+    "depth_image_rectified": Key("bool", True,
+                                 doc="depth image input: intrinsics from camera_info's P (rectified), else K"),
     "queue_size": Key("int", 10, lo=1, doc="clouds waiting for their transform"),
 }
 CONVERTER_PAIRS = [("min_height", "max_height"), ("angle_min", "angle_max"),

@@ -1,12 +1,15 @@
 """CPU against depth points (the paper's Fig. 8).
 
 For each number of depth points per camera, a short scenario bag is simulated and played
-twice through the pipeline (one nodelet manager: depth_image_proc, converters, mergers):
+three times through the pipeline (one nodelet manager):
 
-- run "merged": a consumer takes only the merged scan. Measured: CPU of the manager
-  (converters + mergers + depth_image_proc), size and rate of the merged scan.
-- run "raw": a consumer takes what it would need without the pipeline's output: the
-  depth clouds and the lidar scans. Measured: their size and rate as received, the
+- run "merged_image": the cameras' depth images go straight to scans (pipeline.launch's
+  default depth_input:=image: depth-image converters + mergers); a consumer takes only the
+  merged scan. Measured: CPU of the manager, size and rate of the merged scan.
+- run "merged": the same through depth_image_proc/point_cloud_xyz + the cloud converters
+  (depth_input:=cloud), the path for cameras that only publish clouds.
+- run "raw" (depth_input:=cloud): a consumer takes what it would need without the pipeline's
+  output: the depth clouds and the lidar scans. Measured: their size and rate as received, the
   manager's CPU (which now also serialises the clouds for an out-of-process consumer),
   and the consumer's own CPU.
 """
@@ -91,23 +94,29 @@ def experiment(outdir, points=POINTS, duration=4.0, launch=ev.DEFAULT_LAUNCH, la
     bar = None
     if progress:
         from tqdm import tqdm
-        bar = tqdm(total=len(points) * 3, desc="cpu experiment", unit="step", file=sys.stderr)
+        bar = tqdm(total=len(points) * 4, desc="cpu experiment", unit="step", file=sys.stderr)
     with ev.Session(workdir=workdir) as session:
         for n in points:
             bag = os.path.join(session.workdir, "points_%d.bag" % n)
             simulate(bag, duration, n, seed)
             if bar:
                 bar.update()
-            merged = measure(session, bag, launch, launch_args, "merged", merged_topic)
+            image_args, cloud_args = list(launch_args) + ["depth_input:=image"], list(launch_args) + [
+                "depth_input:=cloud"]
+            merged_image = measure(session, bag, launch, image_args, "merged", merged_topic)
             if bar:
                 bar.update()
-            raw = measure(session, bag, launch, launch_args, "raw", merged_topic)
+            merged = measure(session, bag, launch, cloud_args, "merged", merged_topic)
+            if bar:
+                bar.update()
+            raw = measure(session, bag, launch, cloud_args, "raw", merged_topic)
             if bar:
                 bar.update()
             os.remove(bag)
-            rows.append({"points_per_camera": n, "merged": merged, "raw": raw})
-            log("%7d points/camera: manager CPU %s%% (merged consumer), merged scan %s kB/s, "
-                "raw inputs %s kB/s" % (n, fmt(merged["manager_cpu_percent"]),
+            rows.append({"points_per_camera": n, "merged_image": merged_image, "merged": merged, "raw": raw})
+            log("%7d points/camera: manager CPU %s%% (image path) / %s%% (cloud path), merged scan %s kB/s, "
+                "raw inputs %s kB/s" % (n, fmt(merged_image["manager_cpu_percent"]),
+                                        fmt(merged["manager_cpu_percent"]),
                                         fmt(merged["bytes_per_s"], 1e-3),
                                         fmt(raw["bytes_per_s"], 1e-3)))
     if bar:
@@ -126,8 +135,10 @@ def plot(res, path):
     plt = _plt()
     pts = np.array([r["points_per_camera"] for r in res["rows"]]) / 1000.0
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.4))
+    a1.plot(pts, [r["merged_image"]["manager_cpu_percent"] for r in res["rows"]], "D-",
+            label="pipeline manager, depth images -> scans, merged scan out")
     a1.plot(pts, [r["merged"]["manager_cpu_percent"] for r in res["rows"]], "o-",
-            label="pipeline manager, consumer takes the merged scan")
+            label="pipeline manager, point_cloud_xyz + cloud converters, merged scan out")
     a1.plot(pts, [r["raw"]["manager_cpu_percent"] for r in res["rows"]], "s--",
             label="pipeline manager, consumer takes raw clouds")
     a1.plot(pts, [r["raw"]["consumer_cpu_percent"] for r in res["rows"]], "^:",
@@ -156,18 +167,21 @@ def write_markdown(res, path):
     for r in res["rows"]:
         m, w = r["merged"], r["raw"]
         mrate = [v["rate_hz"] for t, v in m["topics"].items()]
-        rows.append([r["points_per_camera"], fmt(m["manager_cpu_percent"]),
+        rows.append([r["points_per_camera"], fmt(r["merged_image"]["manager_cpu_percent"]),
+                     fmt(m["manager_cpu_percent"]),
                      fmt(w["manager_cpu_percent"]), fmt(m["consumer_cpu_percent"]),
                      fmt(w["consumer_cpu_percent"]), fmt(m["bytes_per_s"], 1e-3),
                      fmt(mrate[0] if mrate else float("nan")), fmt(w["bytes_per_s"], 1e-6, 2),
                      fmt(w["bytes_per_s"] / m["bytes_per_s"] if m["bytes_per_s"] else float("nan"), 1, 0)])
     text = ["# CPU against depth points", "",
-            "Simulated bags of %.0f s per point count; one nodelet manager runs depth_image_proc, "
-            "the two converters and the mergers. CPU: CPU seconds per second of bag data, in "
+            "Simulated bags of %.0f s per point count; one nodelet manager runs one of the two "
+            "camera paths (image path: depth-image converters; cloud path: depth_image_proc + "
+            "cloud converters) and the mergers. CPU: CPU seconds per second of bag data, in "
             "percent of one core; "
             "sizes as received by an out-of-process consumer. Total run %.0f s." % (
                 res["duration_s"], res["wall_s"]), "",
-            table(["points per camera", "manager CPU %, merged consumer",
+            table(["points per camera", "manager CPU %, image path, merged consumer",
+                   "manager CPU %, cloud path, merged consumer",
                    "manager CPU %, raw consumer", "consumer CPU %, merged",
                    "consumer CPU %, raw", "merged scan kB/s", "merged scan Hz",
                    "raw inputs MB/s", "raw / merged size"], rows), "",

@@ -5,7 +5,11 @@
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
 #include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/exact_time.h>
+#include <message_filters/synchronizer.h>
 #include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/message_filter.h>
@@ -20,6 +24,8 @@
 #include <vector>
 
 #include "depth_filter_scan_converter/DepthFilterScanConverterConfig.h"
+#include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/depth_image_view.h"
 #include "depth_filter_scan_converter/parameters.h"
 #include "depth_filter_scan_converter/projector.h"
 
@@ -29,12 +35,20 @@ namespace depth_filter_scan_converter
 /// Throws std::invalid_argument naming the parameter that is wrong (type or value).
 Parameters loadParameters(const ros::NodeHandle& private_nh);
 
+/// What the converter reads: a PointCloud2 on cloud_in, or a depth image on image with its
+/// CameraInfo on camera_info (the pixels are turned into points inside the projection).
+enum class DepthInput
+{
+  Cloud,
+  Image
+};
+
 class DepthFilterScanConverter
 {
 public:
-  /// Topics (cloud_in, scan, filtered_cloud) live in nh; parameters in private_nh.
-  /// Throws std::invalid_argument (naming the parameter) on a bad configuration.
-  DepthFilterScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  /// Topics (cloud_in or image + camera_info, scan, filtered_cloud) live in nh; parameters in
+  /// private_nh. Throws std::invalid_argument (naming the parameter) on a bad configuration.
+  DepthFilterScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh, DepthInput input = DepthInput::Cloud);
   ~DepthFilterScanConverter();
 
   DepthFilterScanConverter(const DepthFilterScanConverter&) = delete;
@@ -42,27 +56,62 @@ public:
 
 private:
   using Cloud = sensor_msgs::PointCloud2;
+  using Image = sensor_msgs::Image;
+  using CameraInfo = sensor_msgs::CameraInfo;
   using Config = DepthFilterScanConverterConfig;
+  using ImageSync = message_filters::Synchronizer<message_filters::sync_policies::ExactTime<Image, CameraInfo>>;
+
+  /// When a message waiting for its transform came in, and (images) its camera_info.
+  struct Arrival
+  {
+    const void* message = nullptr;
+    ros::Time time;
+    CameraInfo::ConstPtr info;
+  };
 
   void connectCallback();
-  void cloudArrived(const Cloud::ConstPtr& cloud);
-  void transformFailed(const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason);
-  void process(const Cloud::ConstPtr& cloud);
+  /// Both inputs: header checks, then into the tf filter.
+  template <class M>
+  void arrived(const boost::shared_ptr<const M>& message, const CameraInfo::ConstPtr& info,
+               tf2_ros::MessageFilter<M>& filter);
+  template <class M>
+  void transformFailed(const boost::shared_ptr<const M>& message,
+                       tf2_ros::filter_failure_reasons::FilterFailureReason reason);
+  /// Both inputs, once the transform is there: freshness, view, projection, publishing.
+  template <class M>
+  void process(const boost::shared_ptr<const M>& message);
+  std::string viewOf(const Cloud& cloud, const Arrival& arrival, CloudView& view);
+  std::string viewOf(const Image& image, const Arrival& arrival, DepthImageView& view);
+  void imageArrived(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info);
+  /// The synchronizer let go of an image whose camera_info never came (or of a lone camera_info).
+  void imageDropped(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info);
   void reconfigure(Config& config, std::uint32_t level);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
-  bool takeArrival(const Cloud* cloud, ros::Time& arrival);
+  bool takeArrival(const void* message, Arrival& arrival);
+  /// Why the header cannot reach tf2 ("" when it can); warns once about a leading '/'.
+  std::string headerProblem(const std_msgs::Header& header);
+  /// Counts a malformed message and warns, throttled per kind of defect.
+  void dropMalformed(const std::string& reason, const std::string& frame_id);
   /// Throttling per converter (ROS_WARN_THROTTLE keeps one timer per call site, shared by every
   /// converter in a manager: one camera's trouble would hide another's).
   static bool due(ros::WallTime& last, double period = 5.0);
 
   ros::NodeHandle nh_, private_nh_;
+  const DepthInput input_;
+  std::string input_topic_;  // resolved, for messages
   Parameters params_;
   int queue_size_ = 10;
 
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   message_filters::Subscriber<Cloud> cloud_sub_;
-  std::unique_ptr<tf2_ros::MessageFilter<Cloud>> tf_filter_;
+  std::unique_ptr<tf2_ros::MessageFilter<Cloud>> cloud_filter_;
+  // Images wait for the camera_info of their stamp (ExactTime, queue_size frames), as
+  // image_transport's CameraSubscriber does, then for their transform.
+  message_filters::Subscriber<Image> image_sub_;
+  message_filters::Subscriber<CameraInfo> info_sub_;
+  std::unique_ptr<ImageSync> image_sync_;
+  std::unique_ptr<tf2_ros::MessageFilter<Image>> image_filter_;
   ros::Publisher scan_pub_, cloud_pub_;
   std::mutex connect_mutex_;  // taken before advertise: the connect callback may fire during it
   bool subscribed_ = false;
@@ -70,7 +119,7 @@ private:
   std::mutex mutex_;  // projector, parameters, statistics
   Projector projector_;
   std::vector<float> kept_points_;
-  std::deque<std::pair<const Cloud*, ros::Time>> arrivals_;  // when each waiting cloud came in
+  std::deque<Arrival> arrivals_;  // of the messages waiting in the tf filter
 
   std::unique_ptr<dynamic_reconfigure::Server<Config>> reconfigure_server_;
   bool first_reconfigure_ = true;
@@ -78,12 +127,14 @@ private:
   diagnostic_updater::Updater updater_;
   ros::Timer diagnostics_timer_;
   // Statistics since start and since the last diagnostics update.
-  std::uint64_t received_ = 0, published_ = 0, tf_failures_ = 0, malformed_ = 0, stale_ = 0;
-  std::uint64_t received_at_last_report_ = 0, problems_at_last_report_ = 0;
+  std::uint64_t received_ = 0, published_ = 0, tf_failures_ = 0, malformed_ = 0, stale_ = 0, without_info_ = 0;
+  std::uint64_t received_at_last_report_ = 0, malformed_at_last_report_ = 0, tf_failures_at_last_report_ = 0,
+                stale_at_last_report_ = 0, without_info_at_last_report_ = 0;
   ros::WallTime last_report_;
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0;
-  std::string last_malformed_reason_;
-  ros::WallTime warned_tf_, warned_late_, warned_malformed_, warned_intensity_;
+  std::string last_malformed_reason_, last_tf_reason_;
+  bool warned_slash_ = false;
+  ros::WallTime warned_tf_, warned_late_, warned_malformed_, warned_intensity_, warned_info_;
 };
 
 }  // namespace depth_filter_scan_converter

@@ -20,6 +20,7 @@ struct Parameters
   double angle_increment = M_PI / 720.0;      ///< beam spacing
   double range_min = 0.0;                     ///< planar distance limits from the frame origin
   double range_max = 10.0;
+  bool too_close_at_range_min = false;  ///< too close is -Inf (REP 117) ... or range_min
   bool hole_detection = false;          ///< points far below the floor become obstacles
   double hole_depth = 0.05;             ///< how far below the floor a point is a hole
   double transform_tolerance = 0.1;     ///< how long a cloud may wait for its transform
@@ -30,6 +31,7 @@ struct Parameters
   std::string intensity_field;          ///< empty: no intensities in the scan
   bool publish_filtered_cloud = false;  ///< publish the kept points (for rviz)
   double tf_buffer_duration = 10.0;     ///< length of the tf buffer
+  bool depth_image_rectified = true;    ///< depth images: intrinsics from camera_info's P, else K
 
   /// Throws std::invalid_argument naming the first bad parameter and why.
   void validate() const;
@@ -39,6 +41,11 @@ struct Parameters
 
   /// The value written for "no return" in a bin.
   float noReturnValue() const;
+
+  /// The value written for a beam whose closest obstacle is nearer than range_min: -Inf
+  /// (REP 117), or range_min (an obstacle at the closest distance the sensor can report).
+  /// Never a no return: a costmap would clear what is right in front of the camera.
+  float tooCloseValue() const;
 };
 
 }  // namespace depth_filter_scan_converter

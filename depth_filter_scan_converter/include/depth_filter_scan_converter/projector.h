@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/depth_image_view.h"
 #include "depth_filter_scan_converter/parameters.h"
 
 namespace depth_filter_scan_converter
@@ -14,13 +15,14 @@ namespace depth_filter_scan_converter
 ///
 /// Rules, all in the reference frame (z up):
 /// - a point is an obstacle when floor_height+min_height <= z <= floor_height+max_height and
-///   range_min <= hypot(x, y) <= range_max and angle_min <= atan2(y, x) <= angle_max;
+///   hypot(x, y) <= range_max and angle_min <= atan2(y, x) <= angle_max;
 /// - with hole_detection, a point lower than floor_height-hole_depth is a hole: its obstacle
 ///   is where the ray camera origin -> point crosses z = floor_height (range and angle limits
 ///   then apply to that crossing);
 /// - beam i covers the angles nearest to angle_min + i*angle_increment (round to nearest),
 ///   clamped to the last beam, so a point on angle_max stays in bounds;
-/// - each beam keeps its closest obstacle; beams without one read noReturnValue();
+/// - each beam keeps its closest obstacle; beams without one read noReturnValue(); a beam whose
+///   closest obstacle is nearer than range_min reads tooCloseValue() (-Inf by default, REP 117);
 /// - NaN / Inf points are skipped.
 /// Beam angles come from fastAtan2 (error < kFastAtan2MaxError) and the arithmetic is float, so
 /// a point within a few micro-radians (or micrometres) of a border may land on either side.
@@ -40,14 +42,23 @@ public:
   /// cloud's stamp. `ranges` is resized to beamCount(). `intensities`, if given, is resized to
   /// beamCount() when the view has an intensity field (value of the closest point, 0 where there
   /// is no return) and cleared otherwise. `kept_points`, if given, receives x, y, z (reference
-  /// frame) of every point that passed the filters, hole crossings included.
+  /// frame) of every obstacle point (too close ones and hole crossings included).
   void project(const CloudView& cloud, const Eigen::Isometry3d& camera_to_reference, std::vector<float>& ranges,
+               std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr);
+
+  /// The same for a depth image: its pixels are the points (see DepthImageView), with the same
+  /// rules and strides. A depth image has no intensities: `intensities`, if given, is cleared.
+  void project(const DepthImageView& image, const Eigen::Isometry3d& camera_to_reference, std::vector<float>& ranges,
                std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr);
 
   /// Per-cloud constants of the inner loop (defined in projector.cpp).
   struct Frame;
 
 private:
+  Frame start(const Eigen::Isometry3d& camera_to_reference, std::vector<float>* kept_points);
+  void finish(const Frame& frame, std::vector<float>& ranges);
+  template <bool kHole, bool kKeep>
+  void runDepth(const DepthImageView& image, const Frame& frame, std::vector<float>* kept_points);
   template <typename T, bool kHole, bool kIndex, bool kKeep>
   void run(const CloudView& cloud, const Frame& frame, std::vector<float>* kept_points);
   template <typename T, bool kHole>
@@ -56,6 +67,7 @@ private:
   Parameters params_;
   std::vector<float> best_r2_;
   std::vector<std::uint32_t> best_index_;
+  std::vector<float> column_offsets_;  // u - cx of every column taken from a depth image
 };
 
 /// The straightforward per-point converter (Eigen transform in double, then std::atan2 and

@@ -6,8 +6,9 @@ a wall 2.0 m ahead and a box. For every cloud the test broadcasts a new tilt (pi
 40, 15 and 30 degrees down), then publishes the cloud the camera sees with that tilt (ray cast
 here), and checks the scan: every beam equals the expected scan (brute force in this file),
 every obstacle lies on the wall or on the box, the floor never shows up, and the intensities
-are those of the chosen points. A malformed cloud in the middle must not kill the converter:
-the next good cloud still gives its scan. The subscription to cloud_in is lazy: none before the
+are those of the chosen points. Malformed clouds in the middle (one point short, no z, a stamp
+at the end of ROS time, an empty frame_id) must not kill the converter: the next good cloud
+still gives its scan; a frame_id with a leading '/' is converted. The subscription to cloud_in is lazy: none before the
 test listens to the outputs, none after it stops listening.
 """
 import math
@@ -216,6 +217,24 @@ class ConverterTest(unittest.TestCase):
                 self.assertIsNone(self.wait_for(self.scans, bad_stamp, timeout=0.5), "malformed cloud gave a scan")
                 self.assertIsNone(self.wait_for(self.scans, bad2_stamp, timeout=0.2), "cloud without z gave a scan")
                 stamp = bad2_stamp
+            if k == 2:
+                # Headers that reach roscpp's time arithmetic or tf2: a stamp at the end of ROS
+                # time (roscpp throws "Time is out of dual 32-bit range" there, which would abort
+                # the whole manager) and an empty frame_id are dropped; the converter lives on.
+                huge = cloud_message(points, rospy.Time(4294967295, 999999999), "camera_optical")
+                self.cloud_pub.publish(huge)
+                empty_stamp = stamp + rospy.Duration(0.01)
+                self.cloud_pub.publish(cloud_message(points, empty_stamp, ""))
+                self.assertIsNone(self.wait_for(self.scans, huge.header.stamp, timeout=0.5), "huge stamp gave a scan")
+                self.assertIsNone(self.wait_for(self.scans, empty_stamp, timeout=0.2), "empty frame_id gave a scan")
+                # A leading slash (tf1 style) is stripped, as tf2_ros's MessageFilter does.
+                slash_stamp = stamp + rospy.Duration(0.02)
+                self.send_tilt(pitch, slash_stamp)
+                self.cloud_pub.publish(cloud_message(points, slash_stamp, "/camera_optical"))
+                scan = self.wait_for(self.scans, slash_stamp)
+                self.assertIsNotNone(scan, "no scan for a frame_id with a leading slash")
+                self.check_scan(scan, points, pitch)
+                stamp = slash_stamp
 
         # Nobody listens any more: the converter lets go of cloud_in.
         self.scan_sub.unregister()

@@ -1,0 +1,7 @@
+#include "depth_filter_scan_converter/run_node.h"
+
+int main(int argc, char** argv)
+{
+  return depth_filter_scan_converter::runNode(argc, argv, "depth_image_scan_converter",
+                                              depth_filter_scan_converter::DepthInput::Image);
+}
