@@ -1,6 +1,9 @@
 #include "multi_laserscan_merger/multi_laserscan_merger_ros.hpp"
 
+#include <algorithm>
 #include <boost/make_shared.hpp>
+#include <cmath>
+#include <iterator>
 #include <set>
 
 #include <tf2_eigen/tf2_eigen.h>
@@ -136,6 +139,14 @@ ScanView viewOf(const sensor_msgs::LaserScan& m)
   v.n_intensities = m.intensities.size();
   return v;
 }
+
+bool transformIsFinite(const geometry_msgs::Transform& t)
+{
+  const double values[] = { t.translation.x, t.translation.y, t.translation.z, t.rotation.x,
+                            t.rotation.y,    t.rotation.z,    t.rotation.w };
+  return std::all_of(std::begin(values), std::end(values), [](double v) { return std::isfinite(v); });
+}
+
 }  // namespace
 
 MergerParams loadParams(const ros::NodeHandle& pnh)
@@ -260,7 +271,15 @@ bool MultiLaserScanMergerRos::tryTransform(std::size_t i, const std::string& fra
         error = "tf2 gave no reason";
       return false;
     }
-    sources_[i].output_T_sensor = tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, stamp));
+    const Eigen::Isometry3d output_T_sensor =
+      tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, stamp));
+    // Finite links can still compose to an infinite chain: such a mount would move every return away.
+    if (!output_T_sensor.matrix().allFinite())
+    {
+      error = "the transform is not finite";
+      return false;
+    }
+    sources_[i].output_T_sensor = output_T_sensor;
   }
   catch (const std::exception& e)
   {
@@ -281,6 +300,8 @@ void MultiLaserScanMergerRos::addTransforms(const ros::MessageEvent<const tf2_ms
     std::string why;
     if (const char* fault = stampFault(t.header.stamp.sec, t.header.stamp.nsec, now))
       why = fault;
+    else if (!transformIsFinite(t.transform))
+      why = "translation or rotation is not finite (tf2 itself refuses only NaN)";
     else
       try
       {

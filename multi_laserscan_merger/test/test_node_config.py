@@ -154,6 +154,16 @@ def test_tf_with_a_stamp_near_2_to_the_32_is_ignored(ros_env):
     assert "transform 'base_link' -> 'x'" in out and 'stamp 4294967290.000000000 ignored' in out, out
 
 
+def test_infinite_transform_is_ignored(ros_env):
+    # tf2 refuses NaN but stores an infinite translation: a mount that moves every return away.
+    alive, out = node_output_after_one_message(
+        ros_env, 'merger_tfinf', 'odom_topic: ""\nsources: [{name: a, topic: tfinf/scan}]', '/tf',
+        'tf2_msgs/TFMessage', '{transforms: [{header: {frame_id: base_link}, child_frame_id: lidar, '
+        'transform: {translation: {x: .inf}, rotation: {w: 1.0}}}]}')
+    assert alive, out
+    assert "transform 'base_link' -> 'lidar'" in out and 'not finite' in out, out
+
+
 def test_missing_transform_is_reported(ros_env):
     set_params(ros_env, 'merger_tf', 'odom_topic: ""\nsources: [{name: side, topic: tf/scan}]')
     p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_tf'],
