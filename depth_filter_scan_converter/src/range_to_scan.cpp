@@ -29,7 +29,8 @@ std::string describe(const char* what, double value)
 
 void RangeScanParameters::validate() const
 {
-  require(std::isfinite(arc_width_scale) && arc_width_scale > 0.0, "arc_width_scale", "must be a finite value > 0");
+  // Up to 4x the cone: wider arcs mark mostly free space (use arc_width for a fixed, wide arc).
+  require(arc_width_scale > 0.0 && arc_width_scale <= 4.0, "arc_width_scale", "must be within (0, 4]");
   require(std::isfinite(arc_width) && arc_width >= 0.0 && arc_width <= kTwoPi + 1e-6, "arc_width",
           "must be within [0, 2*pi] rad (0: use the message's field_of_view)");
   require(std::isfinite(angle_increment) && angle_increment > 0.0, "angle_increment", "must be a finite value > 0");

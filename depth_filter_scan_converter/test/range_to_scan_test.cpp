@@ -63,7 +63,7 @@ TEST(RangeScanParameters, BadValuesNameTheParameter)
 {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  for (double v : { 0.0, -1.0, nan, inf })
+  for (double v : { 0.0, -1.0, 4.5, nan, inf })
   {
     dfsc::RangeScanParameters p;
     p.arc_width_scale = v;
@@ -144,7 +144,9 @@ TEST(RangeToScan, BadMessagesAreRejectedWithTheirReason)
     s.angle_min = 42.0;
     const std::string why = c.convert(r, s);
     if (!why.empty())
+    {
       EXPECT_EQ(s.angle_min, 42.0) << "a rejected reading touched the scan";
+    }
     return why;
   };
   dfsc::RangeReading r = reading(1.0);
@@ -179,9 +181,9 @@ TEST(RangeToScan, ArcWidthOptions)
   dfsc::RangeToScan half(p);
   dfsc::ArcScan s = convert(half, reading(1.0, 1.0));
   EXPECT_NEAR(s.angle_max, 0.25, 1e-12);
-  p.arc_width_scale = 10.0;  // wider than a turn: one turn
+  p.arc_width_scale = 4.0;  // wider than a turn: one turn
   dfsc::RangeToScan wide(p);
-  s = convert(wide, reading(1.0, 1.0));
+  s = convert(wide, reading(1.0, 2.0));
   EXPECT_NEAR(s.angle_max - s.angle_min, 2 * kPi, 1e-12);
   p.arc_width_scale = 0.5;
   p.arc_width = 0.1;  // overrides the scale and the field of view

@@ -17,7 +17,7 @@ namespace depth_filter_scan_converter
 /// Every tunable of the range converter, with its default, in one place (metres, radians).
 struct RangeScanParameters
 {
-  double arc_width_scale = 1.0;          ///< the arc spans field_of_view * this ...
+  double arc_width_scale = 1.0;          ///< the arc spans field_of_view * this (0 < scale <= 4) ...
   double arc_width = 0.0;                ///< ... unless this is > 0: then the arc spans this (rad)
   double angle_increment = 0.004363323;  ///< largest beam spacing (pi/720, the merger's default)
   int min_consecutive_readings = 1;      ///< in-range readings in a row before one is an obstacle
