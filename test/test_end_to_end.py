@@ -169,3 +169,19 @@ def test_evaluate_bag_usage_errors(tmp_path):
     assert run([tool, str(tmp_path / "none.bag")], 60)[0] == 2
     assert run([tool], 60)[0] == 2
     assert run([tool, DUAL_BAG, "--launch", str(tmp_path / "none.launch")], 60)[0] == 2
+
+
+def test_glass_wall_in_the_merged_scan_only_with_the_ultrasonic_sensors(evaluated):
+    """The route passes a glass wall (and the lidars and cameras see through it): the merged
+    scan, which takes the four ultrasonic arcs, marks it; the lidar-only scan and the camera
+    scans, which have no ultrasonic input, do not."""
+    g = evaluated["results"]["glass"]
+    merged, lidar = g[MERGED], g[LIDAR_ONLY]
+    print("glass beams found: merged %.0f%% of %d, lidar-only %.0f%% of %d"
+          % (100 * merged["found_rate"], merged["glass_beams"], 100 * lidar["found_rate"], lidar["glass_beams"]))
+    assert merged["scans_with_glass"] >= 20, merged
+    assert lidar["found_rate"] <= 0.02, lidar
+    for cam in camera_scan_topics(evaluated["results"]):
+        assert g[cam]["found_rate"] <= 0.02, (cam, g[cam])
+    assert merged["found_rate"] >= 0.15, merged
+    assert merged["found_rate"] >= 10 * max(lidar["found_rate"], 0.002), (merged, lidar)

@@ -82,7 +82,7 @@ class Sonar:
     xyz: Tuple[float, float, float]
     yaw: float
     rate: float = 10.0           # Hz
-    phase: float = 0.0           # s, offset of the first ping (sensors fire in turn)
+    phase: float = 0.0           # s, first ping (in turn; off the 50 Hz odometry grid, see paper_robot)
     field_of_view: float = 0.6   # rad, full cone angle
     min_range: float = 0.3       # m; closer echoes read below it (too close)
     max_range: float = 5.0       # m; no echo reads exactly max_range
@@ -215,8 +215,9 @@ def paper_robot(camera_points=None):
     mounted 3 cm outside the body's corner, yawed 45 degrees outwards, so the body
     hides a quarter of its view), depth cameras at the front corners yawed
     +-41 degrees (164 degrees together) on servos sweeping 15 +- 20 degrees down, and
-    four ultrasonic sensors 0.3 m above the floor (two on the front face yawed +-15
-    degrees, one on each side), pinging in turn at 10 Hz each."""
+    four ultrasonic sensors 0.3 m above the floor (two on the front face yawed +-5
+    degrees, so that their cones' edges meet the aisle's sides beyond 2 m; one on each side), pinging in turn at 10 Hz each; their stamps stay off
+    the odometry's 50 Hz grid so that matching output to input stamps tells them apart."""
     w, h = camera_resolution(camera_points) if camera_points else (304, 171)
     lidars = [
         Lidar("lidar_front", "lidar_front_link", (0.40, 0.27, 0.20), math.radians(45.0), phase=0.0),
@@ -231,10 +232,10 @@ def paper_robot(camera_points=None):
                servo_phase=math.pi),
     ]
     sonars = [
-        Sonar("sonar_front_left", "sonar_front_left_link", (0.37, 0.12, 0.30), math.radians(15.0), phase=0.0),
-        Sonar("sonar_front_right", "sonar_front_right_link", (0.37, -0.12, 0.30), math.radians(-15.0), phase=0.05),
-        Sonar("sonar_left", "sonar_left_link", (0.0, 0.24, 0.30), math.radians(90.0), phase=0.025),
-        Sonar("sonar_right", "sonar_right_link", (0.0, -0.24, 0.30), math.radians(-90.0), phase=0.075),
+        Sonar("sonar_front_left", "sonar_front_left_link", (0.37, 0.12, 0.30), math.radians(5.0), phase=0.007),
+        Sonar("sonar_front_right", "sonar_front_right_link", (0.37, -0.12, 0.30), math.radians(-5.0), phase=0.057),
+        Sonar("sonar_left", "sonar_left_link", (0.0, 0.24, 0.30), math.radians(90.0), phase=0.032),
+        Sonar("sonar_right", "sonar_right_link", (0.0, -0.24, 0.30), math.radians(-90.0), phase=0.082),
     ]
     return Robot(lidars=lidars, cameras=cameras, sonars=sonars)
 
