@@ -101,23 +101,7 @@ void RangeScanConverter::rangeArrived(const sensor_msgs::Range::ConstPtr& msg)
     last_malformed_reason_ = reason;
     return;
   }
-  switch (arc_.kind)
-  {
-    case ReadingKind::Obstacle:
-      ++obstacles_;
-      break;
-    case ReadingKind::Unconfirmed:
-      ++unconfirmed_;
-      break;
-    case ReadingKind::NoReturn:
-      ++no_returns_;
-      break;
-    case ReadingKind::TooClose:
-      ++too_close_;
-      break;
-    default:
-      ++invalid_;
-  }
+  ++per_kind_[static_cast<std::size_t>(arc_.kind)];
   last_stamp_ = reading.stamp;
 
   auto scan = boost::make_shared<sensor_msgs::LaserScan>();
@@ -153,11 +137,11 @@ void RangeScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   status.add("input rate [Hz]", rate);
   status.add("readings received", received_);
   status.add("scans published", published_);
-  status.add("obstacles", obstacles_);
-  status.add("unconfirmed (min_consecutive_readings)", unconfirmed_);
-  status.add("no returns", no_returns_);
-  status.add("too close", too_close_);
-  status.add("invalid (NaN)", invalid_);
+  status.add("obstacles", per_kind_[static_cast<std::size_t>(ReadingKind::Obstacle)]);
+  status.add("unconfirmed (min_consecutive_readings)", per_kind_[static_cast<std::size_t>(ReadingKind::Unconfirmed)]);
+  status.add("no returns", per_kind_[static_cast<std::size_t>(ReadingKind::NoReturn)]);
+  status.add("too close", per_kind_[static_cast<std::size_t>(ReadingKind::TooClose)]);
+  status.add("invalid (NaN)", per_kind_[static_cast<std::size_t>(ReadingKind::Invalid)]);
   status.add("bad messages dropped", malformed_);
   status.add("last bad message", last_malformed_reason_);
   status.add("stamp of the last reading [s]", last_stamp_);

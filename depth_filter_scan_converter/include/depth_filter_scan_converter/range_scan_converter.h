@@ -6,6 +6,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/Range.h>
 
+#include <array>
 #include <cstdint>
 #include <mutex>
 #include <string>
@@ -47,7 +48,7 @@ private:
   diagnostic_updater::Updater updater_;
   ros::Timer diagnostics_timer_;
   std::uint64_t received_ = 0, published_ = 0, malformed_ = 0;
-  std::uint64_t obstacles_ = 0, unconfirmed_ = 0, no_returns_ = 0, too_close_ = 0, invalid_ = 0;
+  std::array<std::uint64_t, kReadingKinds> per_kind_{};  // readings of each ReadingKind
   std::uint64_t received_at_last_report_ = 0, malformed_at_last_report_ = 0;
   double last_stamp_ = 0.0;
   std::string last_malformed_reason_;

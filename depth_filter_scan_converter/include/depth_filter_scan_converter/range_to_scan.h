@@ -48,6 +48,8 @@ enum class ReadingKind
   Invalid,      ///< NaN: NaN
 };
 
+constexpr std::size_t kReadingKinds = 5;
+
 const char* readingKindName(ReadingKind kind);
 
 /// A LaserScan's geometry and ranges, in the sensor's frame.
