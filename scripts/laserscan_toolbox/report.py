@@ -89,7 +89,8 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
                   "beam); false obstacle: a return with nothing in the ideal scan at or "
                   "before it (+5 cm); missed: an ideal return with nothing in the output at "
                   "or before it. Only beams that returned at least once in the run count "
-                  "(the sensor's field of view).", "", accuracy_table(results), ""]
+                  "(the sensor's field of view); beams whose closest obstacle is glass are "
+                  "judged in the glass section instead.", "", accuracy_table(results), ""]
     lines += glass_section(results)
     m = results.get("mapping")
     if m and "skipped" not in m:
