@@ -140,3 +140,46 @@ def test_merger_rejects_duplicate_names_like_the_checker():
     sources = [dict(SOURCE), dict(SOURCE, topic="other/scan")]
     assert cc.check_merger({"sources": sources})
     assert not merger_core_accepts({}, sources)
+
+
+# ---- range_scan_converter: the checker's RANGE schema against its C++ core ----
+import depth_filter_scan_converter_range_core as range_core  # noqa: E402
+
+RANGE_ROS_ONLY = {"queue_size"}
+
+
+def test_range_schema_has_the_core_defaults():
+    core = range_core.RangeScanParameters()
+    for name, key in cc.RANGE.items():
+        if name in RANGE_ROS_ONLY:
+            continue
+        assert hasattr(core, name), "checker knows '%s', the range core does not" % name
+        assert same(key.default, getattr(core, name)), \
+            "default of '%s': checker %r, core %r" % (name, key.default, getattr(core, name))
+
+
+RANGE_CHANGES = [
+    ("arc_width_scale", 0.0), ("arc_width_scale", -1.0), ("arc_width_scale", 3.0), ("arc_width_scale", 4.5),
+    ("arc_width_scale", math.inf), ("arc_width_scale", math.nan), ("arc_width", -0.1), ("arc_width", 0.0),
+    ("arc_width", 2 * math.pi), ("arc_width", 6.3), ("arc_width", math.inf), ("angle_increment", 0.0),
+    ("angle_increment", 1e-5), ("angle_increment", 1e-4), ("angle_increment", -0.01),
+    ("min_consecutive_readings", 0), ("min_consecutive_readings", 5),
+]
+
+
+def range_core_accepts(name, value):
+    core = range_core.RangeScanParameters()
+    setattr(core, name, value)
+    try:
+        core.validate()
+    except ValueError:
+        return False
+    return True
+
+
+@pytest.mark.parametrize("name,value", RANGE_CHANGES)
+def test_range_verdicts_agree(name, value):
+    checker_ok = not cc.check_range({name: value})
+    core_ok = range_core_accepts(name, value)
+    assert checker_ok == core_ok, "%s = %r: the checker %s it, the range core %s it" % (
+        name, value, "accepts" if checker_ok else "rejects", "accepts" if core_ok else "rejects")

@@ -73,7 +73,10 @@ def test_no_floor_or_ceiling_obstacles_while_the_cameras_tilt(evaluated):
     for t in cams + [MERGED]:
         a = res["accuracy"][t]
         assert a["returns"] > 1000, (t, a)
-        assert a["false_rate"] <= 0.02, (t, a)
+        # The merged scan also holds the ultrasonic arcs, whose cone widening adds false
+        # obstacles of its own (1.9 % measured; 0.3 % without the arcs): the floor and the
+        # ceiling are checked on the camera scans at 2 %, the merged scan bounds the sum.
+        assert a["false_rate"] <= (0.03 if t == MERGED else 0.02), (t, a)
 
 
 def _nearest(stamps, t):
@@ -294,3 +297,21 @@ def test_evaluate_bag_usage_errors(tmp_path):
     assert run([tool], 60)[0] == 2
     assert run([tool, DUAL_BAG, "--launch", str(tmp_path / "none.launch")], 60)[0] == 2
     assert run([tool, DUAL_BAG, "--slam"], 60)[0] == 2  # the SLAM's pictures need --output
+
+
+def test_glass_wall_in_the_merged_scan_only_with_the_ultrasonic_sensors(evaluated):
+    """The route passes a glass wall (and the lidars and cameras see through it): the merged
+    scan, which takes the four ultrasonic arcs, marks it; the lidar-only scan and the camera
+    scans, which have no ultrasonic input, do not."""
+    g = evaluated["results"]["glass"]
+    merged, lidar = g[MERGED], g[LIDAR_ONLY]
+    print("glass beams found: merged %.0f%% of %d, lidar-only %.0f%% of %d"
+          % (100 * merged["found_rate"], merged["glass_beams"], 100 * lidar["found_rate"], lidar["glass_beams"]))
+    assert merged["scans_with_glass"] >= 20, merged
+    assert lidar["found_rate"] <= 0.02, lidar
+    for cam in camera_scan_topics(evaluated["results"]):
+        assert g[cam]["found_rate"] <= 0.02, (cam, g[cam])
+    # Glass beams in every direction count, the four cones cover a part of them (9.5 % found
+    # measured, 0 % without the arcs).
+    assert merged["found_rate"] >= 0.05, merged
+    assert merged["found_rate"] >= 10 * max(lidar["found_rate"], 0.002), (merged, lidar)

@@ -178,3 +178,36 @@ def test_snapshot_plot_places_inputs_by_their_mounts(tmp_path):
     path = report.plot_snapshot(snap, str(tmp_path / "scans.png"))
     import matplotlib.image as mpimg
     assert mpimg.imread(path).shape[1] > 3 * mpimg.imread(path).shape[0] * 0.8  # three panels
+
+
+class FakeGlassScenario(FakeScenario):
+    """The circle of radius 3, with a glass pane 1 m in front of the origin on beams 0..19."""
+
+    class world:  # noqa: N801  (duck-types Scenario.world)
+        glass = ["pane"]
+
+    def ideal_scan(self, t, amin, amax, inc, rmin, rmax, zmin, zmax, pose=None, glass=True):
+        r = FakeScenario.ideal_scan(self, t, amin, amax, inc, rmin, rmax, zmin, zmax, pose or self.true_pose(t))
+        if glass:
+            r = r.copy()
+            r[:20] = 1.0
+        return r
+
+
+def test_glass_beams_are_judged_apart_from_the_range_error():
+    sc = FakeGlassScenario()
+    n = 360
+    clear = FakeScenario.ideal_scan(sc, 0, -math.pi, -math.pi + 2 * math.pi / n * (n - 1), 2 * math.pi / n,
+                                    0, 10, 0, 1, pose=(0.5, 0, 0))
+    # A lidar-like scan: through the pane to the circle on beams 0..19, exact elsewhere.
+    run = {"records": {"/merged": {"scans": [scan(1.0, clear)]}}}
+    info = {"start": 0.0, "end": 10.0, "static_tf": []}
+    res, _ = ev.ground_truth_stats(run, info, sc, band=(0.0, 0.05, 1.0), beam_window=0)
+    m = res["/merged"]
+    assert m["median_error"] < 1e-4 and m["false"] == 0 and m["missed"] == 0
+    g = ev.glass_stats(run, info, sc, (0.0, 0.05, 1.0))["/merged"]
+    assert (g["glass_beams"], g["found"]) == (20, 0)
+    seen_pane = clear.copy()
+    seen_pane[:20] = 0.98
+    g = ev.glass_stats({"records": {"/m": {"scans": [scan(1.0, seen_pane)]}}}, info, sc, (0.0, 0.05, 1.0))["/m"]
+    assert (g["glass_beams"], g["found"]) == (20, 20)

@@ -136,3 +136,17 @@ def test_relative_tolerance_and_range_limit():
     # a wall at 8.1 m beyond an 8 m range limit: the output seeing nothing did not miss it
     s = metrics.scan_metrics(np.full(10, np.inf), np.full(10, 8.1), range_max=8.0)
     assert s["missed"] == 0 and s["ideal_returns"] == 0
+
+
+def test_glass_beams_and_found():
+    inf = np.inf
+    ideal = np.array([1.0, 1.0, 2.0, inf, 6.0, 1.0])
+    without = np.array([3.0, 1.02, 2.0, inf, inf, inf])
+    glass = metrics.glass_beams(ideal, without, tol=0.05, max_range=5.0)
+    # beam 0: glass before a wall; 1: the same obstacle; 2: no glass; 3: nothing; 4: beyond reach;
+    # 5: glass with nothing behind
+    assert glass.tolist() == [True, False, False, False, False, True]
+    # the output sees the wall behind the glass on beam 0 (missed), a closer arc on beam 5 (found)
+    assert metrics.glass_found([3.0, 1.0, 2.0, inf, inf, 0.7], ideal, glass, tol=0.05) == (2, 1)
+    assert metrics.glass_found([1.04, 1.0, 2.0, inf, inf, inf], ideal, glass, tol=0.05) == (2, 1)
+    assert metrics.glass_found([np.nan, 1.0, 2.0, inf, inf, -inf], ideal, glass, tol=0.05) == (2, 0)

@@ -200,7 +200,7 @@ REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 def test_pipeline_launch_nodes(standalone, expected_manager, depth_input):
     """launch/pipeline.launch parses (its configs pass check_config) and starts two
     converters (reading depth images, or with depth_input:=cloud the clouds of two
-    depth_image_proc nodelets) and two mergers, with one manager unless standalone.
+    depth_image_proc nodelets) four range converters and two mergers, with one manager unless standalone.
     Needs the workspace's devel/setup.bash sourced."""
     import subprocess
     out = subprocess.run(["roslaunch", "--nodes", os.path.join(REPO, "launch", "pipeline.launch"),
@@ -212,6 +212,8 @@ def test_pipeline_launch_nodes(standalone, expected_manager, depth_input):
         assert n in nodes
     for n in ("/camera_left_points", "/camera_right_points"):
         assert (n in nodes) == (depth_input == "cloud")
+    for sonar in ("front_left", "front_right", "left", "right"):
+        assert "/sonar_%s_converter" % sonar in nodes
     assert ("/pipeline_manager" in nodes) == expected_manager
     # The converters read what depth_input says.
     args = subprocess.run(["roslaunch", "--args", "/camera_left_converter",
@@ -231,8 +233,13 @@ def test_sim_configs_match_the_simulated_robot():
     with open(os.path.join(REPO, "config", "sim_robot", "lidar_scan.yaml")) as f:
         lidar_only = yaml.safe_load(f)
     topics = {s["topic"] for s in merged["sources"]}
+    sonar_scans = {TOPICS[s.name + "_scan"] for s in sc.robot.sonars}
+    assert len(sonar_scans) == 4
     assert topics == {TOPICS["lidar_front"], TOPICS["lidar_rear"], TOPICS["camera_left_scan"],
-                      TOPICS["camera_right_scan"]}
+                      TOPICS["camera_right_scan"]} | sonar_scans
+    for src in merged["sources"]:
+        if src["topic"] in sonar_scans:  # the arcs' reach is within the sensors' own limit
+            assert 0.0 < src.get("range_max", math.inf) <= sc.robot.sonars[0].max_range
     assert {s["topic"] for s in lidar_only["sources"]} == {TOPICS["lidar_front"], TOPICS["lidar_rear"]}
     for src in lidar_only["sources"]:
         lidar = next(L for L in sc.robot.lidars if TOPICS[L.name] == src["topic"])

@@ -104,6 +104,27 @@ SOURCE_PAIRS = [("range_min", "range_max")]
 
 SCHEMAS = {"converter": CONVERTER, "merger": MERGER}
 
+# range_scan_converter (depth_filter_scan_converter's RangeScanConverterNodelet): sensor_msgs/Range
+# -> LaserScan arc. The sensor's own limits come with each message; these shape the arc.
+RANGE = {
+    "arc_width_scale": Key("float", 1.0, lo=0.0, hi=4.0, lo_open=True,
+                           doc="the arc spans field_of_view times this"),
+    "arc_width": Key("float", 0.0, "rad", lo=0.0, hi=2 * math.pi + PI_TOL,
+                     doc="> 0 overrides field_of_view * arc_width_scale"),
+    "angle_increment": Key("float", 0.004363323, "rad", lo=2 * math.pi / 100000, lo_open=True,
+                           doc="largest beam spacing of the arc"),
+    "min_consecutive_readings": Key("int", 1, lo=1,
+                                    doc="in-range readings in a row before one is an obstacle"),
+    "queue_size": Key("int", 10, lo=1, doc="readings waiting to be converted"),
+}
+SCHEMAS["range"] = RANGE
+RANGE_KEYS_ONLY = {"arc_width_scale", "arc_width", "min_consecutive_readings"}
+
+
+def check_range(params, prefix=""):
+    """Problems of a range_scan_converter block (no cross-field rule: each key stands alone)."""
+    return _check_block(params, RANGE, [], prefix)
+
 
 def _type_name(v):
     if v is None:
@@ -273,6 +294,8 @@ def guess_kind(params):
         return None
     if "sources" in params or "output_frame" in params or "odom_topic" in params:
         return "merger"
+    if set(params) & RANGE_KEYS_ONLY:
+        return "range"
     if set(params) & {"reference_frame", "min_height", "max_height", "floor_height",
                       "hole_detection", "row_stride", "column_stride"}:
         return "converter"
@@ -299,6 +322,8 @@ def _all_mappings(d):
 
 def frames_of(prefix, kind, params):
     """(key path, frame) pairs the configuration names."""
+    if kind == "range":
+        return []  # the arc is in the frame each Range message names
     key = "reference_frame" if kind == "converter" else "output_frame"
     return [(_join(prefix, key), params.get(key, SCHEMAS[kind][key].default))]
 
@@ -350,7 +375,7 @@ def check_data(data, kind=None, tf_tree=None, topic_frames=None):
         return ["(file): no converter or merger parameters found (use --kind to say which)"]
     problems = []
     for prefix, k, params in blocks:
-        problems += (check_converter if k == "converter" else check_merger)(params, prefix)
+        problems += {"converter": check_converter, "merger": check_merger, "range": check_range}[k](params, prefix)
         if tf_tree is not None:
             for path, frame in frames_of(prefix, k, params):
                 if isinstance(frame, str) and frame and not tf_tree.has(frame):
@@ -538,11 +563,11 @@ def main(argv=None):
     import sys
     p = argparse.ArgumentParser(
         prog="check_config",
-        description="Validate depth_filter_scan_converter / multi_laserscan_merger YAML "
+        description="Validate depth_filter_scan_converter / range_scan_converter / multi_laserscan_merger YAML "
                     "files. Prints each problem as 'path.to.key: reason'. Exit status: "
                     "0 all files usable, 1 a file has problems, 2 usage error or missing file.")
     p.add_argument("files", nargs="+", metavar="FILE")
-    p.add_argument("--kind", choices=["converter", "merger"],
+    p.add_argument("--kind", choices=["converter", "merger", "range"],
                    help="what the files configure (default: guessed from the keys)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--bag", help="check frames (and merger source topics) against this bag's "

@@ -537,7 +537,15 @@ def ground_truth_stats(run, bag_info, scenario, band, tol=0.05, beam_window=1,
             if ideal.shape != s["ranges"].shape:
                 skipped += 1
                 continue
-            st.add(metrics.compare_scan(s["ranges"], ideal, tol, beam_window, mask=seen,
+            counted = seen
+            if _has_glass(scenario):
+                # Beams whose closest obstacle is glass are judged apart (glass_stats): the
+                # lidars and cameras see through it, so their ranges there measure the wall
+                # behind, a miss of its own kind rather than a range error.
+                clear = scenario.ideal_scan(s["stamp"], s["angle_min"], s["angle_max"], s["angle_increment"],
+                                            s["range_min"], reach, z_min, z_max, pose=pose, glass=False)
+                counted = seen & ~metrics.glass_beams(ideal, clear, tol)
+            st.add(metrics.compare_scan(s["ranges"], ideal, tol, beam_window, mask=counted,
                                         rel_tol=rel_tol, range_max=s["range_max"]))
             if i == idx[len(idx) // 2]:
                 examples[topic] = {"ranges": s["ranges"].tolist(), "ideal": ideal.tolist(),
@@ -550,6 +558,44 @@ def ground_truth_stats(run, bag_info, scenario, band, tol=0.05, beam_window=1,
                      "field_of_view_beams": int(seen.sum()), "beams_per_scan": n})
         results[topic] = summ
     return results, examples
+
+
+def _has_glass(scenario):
+    return bool(getattr(getattr(scenario, "world", None), "glass", None))
+
+
+def glass_stats(run, bag_info, scenario, band, reach=4.5, tol=0.05, rel_tol=0.03, max_scans=300):
+    """Glass found per scan topic in base_link: on beams whose closest obstacle in the band is
+    a glass pane within ``reach`` (lidars and depth cameras see through it; ultrasonic sensors
+    see it), the share where the scan has an obstacle at or before the pane (+ tolerance)."""
+    from . import metrics as m
+    if not _has_glass(scenario):
+        return {}
+    _, zlo, zhi = band
+    out = {}
+    for topic, d in run["records"].items():
+        scans = [s for s in d["scans"] if s["frame"].lstrip("/") == BASE_FRAME
+                 and bag_info["start"] <= s["stamp"] <= bag_info["end"]]
+        if not scans:
+            continue
+        idx = np.unique(np.linspace(0, len(scans) - 1, min(max_scans, len(scans))).astype(int))
+        beams = found = scans_with_glass = 0
+        for i in idx:
+            s = scans[i]
+            args = (s["stamp"], s["angle_min"], s["angle_max"], s["angle_increment"], s["range_min"],
+                    s["range_max"], zlo, zhi)
+            ideal = np.asarray(scenario.ideal_scan(*args, glass=True), float)
+            if ideal.shape != s["ranges"].shape:
+                continue
+            without = np.asarray(scenario.ideal_scan(*args, glass=False), float)
+            glass = m.glass_beams(ideal, without, tol, reach)
+            b, f = m.glass_found(s["ranges"], ideal, glass, tol, rel_tol)
+            beams += b
+            found += f
+            scans_with_glass += b > 0
+        out[topic] = {"glass_beams": beams, "found": found, "scans_with_glass": int(scans_with_glass),
+                      "found_rate": found / beams if beams else float("nan"), "reach": reach}
+    return out
 
 
 # ---------------------------------------------------------------- thresholds
@@ -668,6 +714,7 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
             for t, a in acc_in.items():
                 a["input"] = True
                 results["accuracy"][t] = a
+        results["glass"] = glass_stats(run, info, scenario, band, max_scans=max_scans)
         refs = None
         if output and map_topics:
             results["mapping"], refs = run_mapping(run, info, scenario, results, map_topics,

@@ -191,3 +191,22 @@ def grid_iou(a, b, region=None):
         b = b & region
     union = np.count_nonzero(a | b)
     return np.count_nonzero(a & b) / union if union else float("nan")
+
+
+def glass_beams(ideal, ideal_without_glass, tol=0.05, max_range=np.inf):
+    """Beams whose closest obstacle is glass: the ideal scan with glass panes has a return
+    within ``max_range`` that is closer (by more than ``tol``) than without them."""
+    with_glass = np.asarray(ideal, float)
+    without = np.asarray(ideal_without_glass, float)
+    with np.errstate(invalid="ignore"):
+        return is_return(with_glass) & (with_glass <= max_range) & ~(without <= with_glass + tol)
+
+
+def glass_found(output, ideal, glass, tol=0.05, rel_tol=0.0):
+    """(glass beams, beams where the output has an obstacle at or before the glass + tol):
+    a robot that stops there does not drive into the pane."""
+    out = np.asarray(output, float)
+    d = np.asarray(ideal, float)
+    with np.errstate(invalid="ignore"):
+        found = is_return(out) & (out <= d + tol + rel_tol * d)
+    return int(np.sum(glass)), int(np.sum(found & glass))

@@ -73,6 +73,25 @@ class Lidar:
 
 
 @dataclass
+class Sonar:
+    """An ultrasonic range sensor (the paper's MaxBotix MB1403): one reading per ping, the
+    distance to the closest surface anywhere in its cone (glass included), published as
+    sensor_msgs/Range.  The cone is modelled in the sensor's horizontal plane."""
+    name: str
+    frame: str
+    xyz: Tuple[float, float, float]
+    yaw: float
+    rate: float = 10.0           # Hz
+    phase: float = 0.0           # s, first ping (in turn; off the 50 Hz odometry grid, see paper_robot)
+    field_of_view: float = 0.6   # rad, full cone angle
+    min_range: float = 0.3       # m; closer echoes read below it (too close)
+    max_range: float = 5.0       # m; no echo reads exactly max_range
+    rays: int = 25               # rays cast across the cone
+    noise_sigma: float = 0.01    # m
+    latency: float = 0.01        # s between the ping and its bag time
+
+
+@dataclass
 class Camera:
     """A depth camera on a tilt servo.  Depth std = noise_a + noise_b * depth^2."""
     name: str
@@ -153,6 +172,7 @@ class Robot:
     acc_w: float = 1.2      # rad/s^2
     lidars: List[Lidar] = field(default_factory=list)
     cameras: List[Camera] = field(default_factory=list)
+    sonars: List[Sonar] = field(default_factory=list)
     odom: OdomNoise = field(default_factory=OdomNoise)
 
     @property
@@ -173,8 +193,9 @@ class Robot:
         lidars = [Lidar(**{**x, "xyz": tuple(x["xyz"])}) for x in d.pop("lidars", [])]
         cams = [Camera(**{**x, "xyz": tuple(x["xyz"]), "optical_offset": tuple(x["optical_offset"])})
                 for x in d.pop("cameras", [])]
+        sonars = [Sonar(**{**x, "xyz": tuple(x["xyz"])}) for x in d.pop("sonars", [])]
         odom = OdomNoise(**d.pop("odom", {}))
-        return cls(lidars=lidars, cameras=cams, odom=odom, **d)
+        return cls(lidars=lidars, cameras=cams, sonars=sonars, odom=odom, **d)
 
 
 def _clean(v):
@@ -193,7 +214,10 @@ def paper_robot(camera_points=None):
     """The paper's robot: lidars at the front-left and rear-right corners (each
     mounted 3 cm outside the body's corner, yawed 45 degrees outwards, so the body
     hides a quarter of its view), depth cameras at the front corners yawed
-    +-41 degrees (164 degrees together) on servos sweeping 15 +- 20 degrees down."""
+    +-41 degrees (164 degrees together) on servos sweeping 15 +- 20 degrees down, and
+    four ultrasonic sensors 0.3 m above the floor (two on the front face yawed +-5
+    degrees, so that their cones' edges meet the aisle's sides beyond 2 m; one on each side), pinging in turn at 10 Hz each; their stamps stay off
+    the odometry's 50 Hz grid so that matching output to input stamps tells them apart."""
     w, h = camera_resolution(camera_points) if camera_points else (304, 171)
     lidars = [
         Lidar("lidar_front", "lidar_front_link", (0.40, 0.27, 0.20), math.radians(45.0), phase=0.0),
@@ -207,7 +231,13 @@ def paper_robot(camera_points=None):
                (0.40, -0.20, 0.63), math.radians(-41.0), width=w, height=h, phase=1.0 / 28.0,
                servo_phase=math.pi),
     ]
-    return Robot(lidars=lidars, cameras=cameras)
+    sonars = [
+        Sonar("sonar_front_left", "sonar_front_left_link", (0.37, 0.12, 0.30), math.radians(5.0), phase=0.007),
+        Sonar("sonar_front_right", "sonar_front_right_link", (0.37, -0.12, 0.30), math.radians(-5.0), phase=0.057),
+        Sonar("sonar_left", "sonar_left_link", (0.0, 0.24, 0.30), math.radians(90.0), phase=0.032),
+        Sonar("sonar_right", "sonar_right_link", (0.0, -0.24, 0.30), math.radians(-90.0), phase=0.082),
+    ]
+    return Robot(lidars=lidars, cameras=cameras, sonars=sonars)
 
 
 # ----- trajectory ----------------------------------------------------------------------------

@@ -48,6 +48,10 @@ TOPICS = {
     "merged_scan": "/merged_scan",                          # lidars + cameras merger
     "lidar_scan": "/lidar_scan",                            # lidar-only merger
 }
+# Ultrasonic sensors: sensor_msgs/Range in, a LaserScan arc out (range converters).
+for _sonar in ("sonar_front_left", "sonar_front_right", "sonar_left", "sonar_right"):
+    TOPICS[_sonar] = "/%s/range" % _sonar
+    TOPICS[_sonar + "_scan"] = "/%s/scan" % _sonar
 
 #: Frame names.
 FRAMES = {"map": "map", "odom": "odom", "base": "base_link"}
@@ -140,21 +144,22 @@ class Scenario:
                 float(np.interp(rel, self._traj["t"], self._traj["w"])))
 
     def ideal_scan(self, t, angle_min, angle_max, angle_increment, range_min, range_max,
-                   z_min, z_max, pose=None):
+                   z_min, z_max, pose=None, glass=True):
         """Ground-truth ranges (n,) with n = round((angle_max - angle_min) / angle_increment) + 1.
 
         Beam i points at angle_min + i * angle_increment in base_link; its range is
         the distance from base_link's origin (at the true pose at time t, or at
         ``pose`` = (x, y, yaw) in map) to the closest obstacle of the world at time
         t (people where they are then) whose height overlaps [z_min, z_max] above
-        the floor.  Floor holes count at their rim; the robot's own body does not
-        count.  +inf: nothing within range_max; -inf: closer than range_min.
+        the floor.  Floor holes count at their rim, glass panes count unless ``glass``
+        is False; the robot's own body does not count.  +inf: nothing within
+        range_max; -inf: closer than range_min.
         """
         n = int(round((angle_max - angle_min) / angle_increment)) + 1
         angles = angle_min + np.arange(n) * angle_increment
         x, y, yaw = self.true_pose(t) if pose is None else pose
         r = self.world.band_scan((x, y), angles + yaw, z_min, z_max, float(t) - self.start_time,
-                                 max_range=range_max)
+                                 max_range=range_max, glass=glass)
         return np.where(r < range_min, -np.inf, r)
 
     def ground_truth_grid(self, resolution, z_min, z_max, static_only=True, t=None):
@@ -203,6 +208,21 @@ class Scenario:
         r = np.where(r > lidar.range_max, np.inf, r)
         return np.where(r < lidar.range_min, -np.inf, r)
 
+    def sonar_range(self, sonar, rel, rng):
+        """One noisy ultrasonic reading (m) at relative time rel: the closest surface in
+        the cone (glass included), ``max_range`` when nothing echoes within it."""
+        x, y, yaw = self.true_pose(rel + self.start_time)
+        c, s = math.cos(yaw), math.sin(yaw)
+        sx, sy, sz = sonar.xyz
+        half = 0.5 * sonar.field_of_view
+        a = yaw + sonar.yaw + np.linspace(-half, half, sonar.rays)
+        o = np.tile([x + c * sx - s * sy, y + s * sx + c * sy, sz], (len(a), 1))
+        d = np.column_stack([np.cos(a), np.sin(a), np.zeros(len(a))])
+        r = float(self.world.cast(o, d, rel, see_glass=True).min())
+        if not r < sonar.max_range:
+            return float(sonar.max_range)
+        return r + float(rng.normal(0.0, sonar.noise_sigma))
+
     def depth_image(self, cam, rel, rng, rays=None):
         """Noisy depth (height, width) float metres of one frame, 0 = no depth."""
         x, y, yaw = self.true_pose(rel + self.start_time)
@@ -235,6 +255,8 @@ class Scenario:
             out[L.name] = np.arange(L.phase, d - st + 1e-9, st)
         for C in self.robot.cameras:
             out[C.name] = np.arange(C.phase, d + 1e-9, 1.0 / C.rate)
+        for S in self.robot.sonars:
+            out[S.name] = np.arange(S.phase, d + 1e-9, 1.0 / S.rate)
         out["odom"] = np.arange(0.0, d + 1e-9, 1.0 / self.robot.odom.rate)
         return out
 
@@ -249,7 +271,7 @@ class Scenario:
         import rosbag
         from . import bagio
         from nav_msgs.msg import Odometry
-        from sensor_msgs.msg import LaserScan, Image, CameraInfo
+        from sensor_msgs.msg import LaserScan, Image, CameraInfo, Range
         from std_msgs.msg import String
 
         t_wall = time.time()
@@ -266,12 +288,16 @@ class Scenario:
         for C in self.robot.cameras:
             for k, s in enumerate(sched[C.name]):
                 events.append((s + C.latency, C.name, k))
+        for S in self.robot.sonars:
+            for k, s in enumerate(sched[S.name]):
+                events.append((s + S.latency, S.name, k))
         for k, s in enumerate(odom_rel):
             events.append((s, "odom", k))
         events.sort(key=lambda e: (e[0], e[1]))
 
         lidars = {L.name: L for L in self.robot.lidars}
         cams = {C.name: C for C in self.robot.cameras}
+        sonars = {S.name: S for S in self.robot.sonars}
         body = {L.name: self.body_ranges(L) for L in self.robot.lidars}
         rays = {C.name: raycast.pixel_rays(C.width, C.height, *C.intrinsics()) for C in self.robot.cameras}
         counts = {}
@@ -311,6 +337,17 @@ class Scenario:
                     m.time_increment = m.scan_time / L.beams
                     m.range_min, m.range_max = L.range_min, L.range_max
                     m.ranges = r.astype(np.float32).tolist()
+                    bag.write(TOPICS[name], m, bt)
+                elif name in sonars:
+                    S = sonars[name]
+                    rel = sched[name][k]
+                    m = Range()
+                    m.header.stamp = bagio.stamp(t0 + rel)
+                    m.header.frame_id = S.frame
+                    m.radiation_type = Range.ULTRASOUND
+                    m.field_of_view = S.field_of_view
+                    m.min_range, m.max_range = S.min_range, S.max_range
+                    m.range = self.sonar_range(S, rel, rng)
                     bag.write(TOPICS[name], m, bt)
                 else:
                     C = cams[name]
@@ -371,10 +408,10 @@ class Scenario:
         return m
 
     def static_transforms(self, t):
-        """Fixed mounts: base_link -> lidar frames, tilt links -> optical frames."""
+        """Fixed mounts: base_link -> lidar and sonar frames, tilt links -> optical frames."""
         from . import bagio
         out = [bagio.transform(t, FRAMES["base"], L.frame, L.xyz, quat_from_yaw(L.yaw))
-               for L in self.robot.lidars]
+               for L in self.robot.lidars + self.robot.sonars]
         out += [bagio.transform(t, C.tilt_frame, C.optical_frame, C.optical_offset,
                                 quat_from_matrix(R_LINK_OPTICAL)) for C in self.robot.cameras]
         return out

@@ -1,8 +1,12 @@
-"""The simulated world: upright boxes, vertical cylinders, floor holes, walking people.
+"""The simulated world: upright boxes, vertical cylinders, floor holes, walking people, glass.
 
 All heights are above the floor (z = 0); the world frame is ``map``.  A world is
 plain data (``to_dict`` / ``from_dict`` round-trip exactly) plus packed numpy
 arrays for the ray caster.  ``shop_floor()`` builds the built-in 20 x 15 m scene.
+
+Glass panes (walls, doors) are upright boxes that light passes through: lidars and depth
+cameras see what is behind them, ultrasonic sensors (``cast(..., see_glass=True)``) and the
+ground truth (``band_scan``, ``occupancy``) see the pane itself.
 """
 import math
 from dataclasses import dataclass, field, asdict
@@ -67,6 +71,7 @@ class World:
     cylinders: List[Cylinder] = field(default_factory=list)
     holes: List[Hole] = field(default_factory=list)
     people: List[Person] = field(default_factory=list)
+    glass: List[Box] = field(default_factory=list)
 
     def __post_init__(self):
         self._pack()
@@ -90,6 +95,7 @@ class World:
             "cylinders": [asdict(c) for c in self.cylinders],
             "holes": [asdict(h) for h in self.holes],
             "people": [asdict(p) for p in self.people],
+            "glass": [asdict(g) for g in self.glass],
         })
 
     @classmethod
@@ -103,6 +109,8 @@ class World:
             holes=[Hole(**h) for h in d.get("holes", [])],
             people=[Person(p["name"], [tuple(q) for q in p["path"]], p["speed"], p.get("phase", 0.0),
                            p.get("radius", 0.2), p.get("height", 1.75)) for p in d.get("people", [])],
+            glass=[Box(g["name"], tuple(g["center"]), tuple(g["size"]), float(g.get("yaw", 0.0)))
+                   for g in d.get("glass", [])],
         )
 
     # ----- packed arrays ---------------------------------------------------------------
@@ -111,6 +119,9 @@ class World:
         self.box_c = np.array([x.center for x in b], float).reshape(-1, 3)
         self.box_h = 0.5 * np.array([x.size for x in b], float).reshape(-1, 3)
         self.box_yaw = np.array([x.yaw for x in b], float)
+        self.glass_c = np.array([g.center for g in self.glass], float).reshape(-1, 3)
+        self.glass_h = 0.5 * np.array([g.size for g in self.glass], float).reshape(-1, 3)
+        self.glass_yaw = np.array([g.yaw for g in self.glass], float)
         c = self.cylinders
         self.cyl_xy = np.array([x.xy for x in c], float).reshape(-1, 2)
         self.cyl_r = np.array([x.radius for x in c], float)
@@ -152,11 +163,12 @@ class World:
                 "cyl_xy": xy, "cyl_r": r, "cyl_z0": z0, "cyl_z1": z1}
 
     # ----- ray casting -----------------------------------------------------------------
-    def cast(self, origins, directions, rel_times):
+    def cast(self, origins, directions, rel_times, see_glass=False):
         """Distance along each ray (N,) to the first surface, +inf if none.
 
         rel_times: scalar or (N,) scenario-relative times at which each ray sees
-        the people (a swept lidar casts every beam at its own time).
+        the people (a swept lidar casts every beam at its own time).  see_glass:
+        glass panes stop the ray (sound); otherwise it passes through them (light).
         """
         origins = np.asarray(origins, float)
         directions = np.asarray(directions, float)
@@ -181,13 +193,17 @@ class World:
             tp = raycast.ray_vcylinders(origins, directions, pxy, self.person_r,
                                         np.zeros(len(self.people)), self.person_h)
             t = np.minimum(t, tp.min(axis=1))
+        if see_glass and len(self.glass):
+            t = np.minimum(t, raycast.ray_boxes(origins, directions, self.glass_c, self.glass_h,
+                                                self.glass_yaw).min(axis=1))
         return t
 
     def band_scan(self, origin_xy, angles, z_min, z_max, rel_time, max_range=np.inf,
-                  static_only=False):
+                  static_only=False, glass=True):
         """2D ranges (len(angles),) from ``origin_xy`` along world ``angles`` to the
         closest obstacle whose height overlaps [z_min, z_max]; holes count at their
-        rim; +inf where nothing within ``max_range``."""
+        rim; glass panes count unless ``glass`` is False; +inf where nothing within
+        ``max_range``."""
         angles = np.asarray(angles, float)
         n = len(angles)
         o = np.zeros((n, 3))
@@ -195,14 +211,19 @@ class World:
         d = np.column_stack([np.cos(angles), np.sin(angles), np.zeros(n)])
         t = np.full(n, np.inf)
         # Extrude every obstacle in the band to a prism around z = 0, where the rays lie.
-        bz0 = self.box_c[:, 2] - self.box_h[:, 2]
-        bz1 = self.box_c[:, 2] + self.box_h[:, 2]
+        box_c, box_h, box_yaw = self.box_c, self.box_h, self.box_yaw
+        if glass and len(self.glass):
+            box_c = np.vstack([box_c, self.glass_c])
+            box_h = np.vstack([box_h, self.glass_h])
+            box_yaw = np.concatenate([box_yaw, self.glass_yaw])
+        bz0 = box_c[:, 2] - box_h[:, 2]
+        bz1 = box_c[:, 2] + box_h[:, 2]
         sel = (bz1 >= z_min) & (bz0 <= z_max)
         if sel.any():
-            c = self.box_c[sel].copy()
-            h = self.box_h[sel].copy()
+            c = box_c[sel].copy()
+            h = box_h[sel].copy()
             c[:, 2], h[:, 2] = 0.0, 1.0
-            t = np.minimum(t, raycast.ray_boxes(o, d, c, h, self.box_yaw[sel]).min(axis=1))
+            t = np.minimum(t, raycast.ray_boxes(o, d, c, h, box_yaw[sel]).min(axis=1))
         if len(self.hole_arr):
             ha = self.hole_arr
             c = np.column_stack([(ha[:, 0] + ha[:, 1]) / 2, (ha[:, 2] + ha[:, 3]) / 2, np.zeros(len(ha))])
@@ -237,7 +258,7 @@ class World:
             gy = np.linspace(-hy, hy, max(2, int(math.ceil(2 * hy / step)) + 1))
             return np.meshgrid(gx, gy)
 
-        for b in self.boxes:
+        for b in self.boxes + self.glass:
             if b.center[2] + b.size[2] / 2 < z_min or b.center[2] - b.size[2] / 2 > z_max:
                 continue
             lx, ly = rect_samples(b.size[0] / 2, b.size[1] / 2)
@@ -313,8 +334,9 @@ def shop_floor():
     """The built-in shop floor: 20 x 15 m, walls 3 m high under a 3 m ceiling,
     four tables (tops at 0.75 m), chairs, three shelf units with overhanging
     boards, a pillar, a low pallet (below lidar height), a 0.3 m deep loading pit,
-    and four people walking.  The robot's route (see ``robot.default_route``)
-    runs along the aisle at y = 7.5 m."""
+    four people walking, a glass wall along the aisle (in front of shelf1) and a
+    closed glass door ahead of the route's far end.  The robot's route (see
+    ``robot.default_route``) runs along the aisle at y = 7.5 m."""
     X, Y, H, T = 20.0, 15.0, 3.0, 0.2
     boxes = [
         Box("wall_south", (X / 2, -T / 2, H / 2), (X + 2 * T, T, H)),
@@ -345,5 +367,8 @@ def shop_floor():
         Person("picker", [(17.3, 7.0), (17.3, 13.0)], 0.6, phase=1.0, radius=0.22),
         Person("south", [(3.0, 2.2), (13.0, 2.2), (13.0, 3.2)], 0.8, phase=5.0),
     ]
+    # 2 cm panes, 2.2 m high, that lidars and depth cameras see through.
+    glass = [Box("glass_wall", (8.35, 6.45, 1.1), (2.9, 0.02, 2.2)),
+             Box("glass_door", (15.4, 4.55, 1.1), (0.02, 1.1, 2.2))]
     return World(bounds=(0.0, X, 0.0, Y), ceiling=H, boxes=boxes, cylinders=cylinders,
-                 holes=holes, people=people)
+                 holes=holes, people=people, glass=glass)

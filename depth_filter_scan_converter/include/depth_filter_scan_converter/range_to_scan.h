@@ -1,0 +1,100 @@
+// One range reading (ultrasonic or infrared, sensor_msgs/Range) -> a LaserScan arc (ROS-free).
+//
+// A reading inside [min_range, max_range) is an obstacle somewhere across the sensor's cone at
+// that distance: every beam of the arc reads it. At or beyond max_range it is no return (+Inf),
+// below min_range too close (-Inf), NaN invalid (REP 117). The scan lies in the sensor's frame,
+// its beams spread symmetrically around the frame's x axis (the cone's axis, as sensor_msgs/Range
+// defines it).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace depth_filter_scan_converter
+{
+/// Every tunable of the range converter, with its default, in one place (metres, radians).
+struct RangeScanParameters
+{
+  double arc_width_scale = 1.0;          ///< the arc spans field_of_view * this (0 < scale <= 4) ...
+  double arc_width = 0.0;                ///< ... unless this is > 0: then the arc spans this (rad)
+  double angle_increment = 0.004363323;  ///< largest beam spacing (pi/720, the merger's default)
+  int min_consecutive_readings = 1;      ///< in-range readings in a row before one is an obstacle
+
+  /// Throws std::invalid_argument naming the first bad parameter and why.
+  void validate() const;
+};
+
+/// The fields of a sensor_msgs/Range the conversion uses (stamp in seconds).
+struct RangeReading
+{
+  std::string frame_id;
+  double stamp = 0.0;
+  std::uint8_t radiation_type = 0;  ///< 0 ULTRASOUND, 1 INFRARED
+  double field_of_view = 0.0;       ///< rad, full cone angle
+  double min_range = 0.0;           ///< m
+  double max_range = 0.0;           ///< m
+  double range = 0.0;               ///< m
+};
+
+/// What a reading says, after the debounce.
+enum class ReadingKind
+{
+  Obstacle,     ///< in range (and confirmed): the arc holds the range
+  Unconfirmed,  ///< in range, but fewer than min_consecutive_readings in a row: NaN (no proof either way)
+  NoReturn,     ///< at or beyond max_range (or +Inf): +Inf, never an obstacle
+  TooClose,     ///< below min_range (or -Inf): -Inf
+  Invalid,      ///< NaN: NaN
+};
+
+constexpr std::size_t kReadingKinds = 5;
+
+const char* readingKindName(ReadingKind kind);
+
+/// A LaserScan's geometry and ranges, in the sensor's frame.
+struct ArcScan
+{
+  double angle_min = 0.0, angle_max = 0.0, angle_increment = 0.0;
+  double range_min = 0.0, range_max = 0.0;
+  std::vector<float> ranges;
+  ReadingKind kind = ReadingKind::Invalid;
+};
+
+/// Beams of an arc of `width` rad: the edges are beams, the spacing at most `max_increment`
+/// (fencepost rule: round((angle_max - angle_min) / angle_increment) + 1 beams). A zero width
+/// gives one beam on the axis.
+void arcGeometry(double width, double max_increment, ArcScan& scan);
+
+/// Why a reading cannot be converted ("" when it can): empty frame, non-finite or negative
+/// limits, min_range >= max_range, field of view not in [0, 2 pi] (only when the arc uses it),
+/// unknown radiation type.
+std::string checkReading(const RangeReading& reading, const RangeScanParameters& params);
+
+/// Converts readings one after another (the debounce remembers the previous ones).
+class RangeToScan
+{
+public:
+  /// Validates the parameters (std::invalid_argument naming the bad one).
+  explicit RangeToScan(const RangeScanParameters& params);
+
+  /// Fills `scan` and returns "" or, for a reading that cannot be converted, the reason (the
+  /// scan is then untouched and the debounce forgets its count). A stamp older than the
+  /// previous reading's (a bag loop, a clock jump) restarts the debounce.
+  std::string convert(const RangeReading& reading, ArcScan& scan);
+
+  /// Forgets the debounce count (e.g. when the input is resubscribed).
+  void reset();
+
+  const RangeScanParameters& parameters() const { return params_; }
+  /// Arc width in rad for a reading's field of view (clamped to one turn).
+  double arcWidth(double field_of_view) const;
+
+private:
+  RangeScanParameters params_;
+  int in_range_in_a_row_ = 0;
+  double last_stamp_ = 0.0;
+  bool have_last_stamp_ = false;
+};
+
+}  // namespace depth_filter_scan_converter
