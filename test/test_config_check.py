@@ -154,6 +154,11 @@ def test_bag_mounts_from_a_launch_file(tmp_path):
     empty.write_text("<launch/>")
     code, out = run(DUAL_MERGER, "--bag", DUAL_BAG, "--tf-launch", str(empty))
     assert code == 2 and "no static_transform_publisher" in out, out
+    # a launch naming a package that is not on ROS_PACKAGE_PATH (an unsourced workspace)
+    unsourced = tmp_path / "unsourced.launch"
+    unsourced.write_text('<launch><include file="$(find no_such_robot_pkg)/launch/x.launch"/></launch>')
+    code, out = run(DUAL_MERGER, "--bag", DUAL_BAG, "--tf-launch", str(unsourced))
+    assert code == 2 and "source the workspace" in out, out
 
 
 @pytest.mark.parametrize("spec,reason", [

@@ -546,7 +546,11 @@ def static_tf_edges_from_launch(path):
     try:
         roslaunch.xmlloader.XmlLoader().load(path, config, verbose=False, argv=["check_config"])
     except Exception as e:  # roslaunch raises several types for a bad or unresolved file
-        raise UsageError("--tf-launch %s: cannot load it: %s" % (path, e)) from None
+        hint = ""
+        if isinstance(e, roslaunch.xmlloader.XmlParseException) or "ROS path" in str(e):
+            # $(find pkg) of the project's own packages needs the workspace on ROS_PACKAGE_PATH.
+            hint = " (a package it names is not found: source the workspace, build/devel/setup.bash)"
+        raise UsageError("--tf-launch %s: cannot load it: %s%s" % (path, e, hint)) from None
     edges = []
     for node in config.nodes:
         period = STATIC_TF_NODES.get((node.package, node.type))
