@@ -80,7 +80,8 @@ struct Projector::Frame
   float a_min, inv_inc;  // exact angle_min for the bin formula
   int beams;
   std::uint32_t row_stride, column_stride;
-  bool hole;  // hole detection on, and the camera above the floor
+  bool hole;     // hole detection on, and the camera above the floor
+  bool cluster;  // beams read the closest cluster's mean (a range noise model is set)
 };
 
 Projector::Projector(const Parameters& params)
@@ -306,6 +307,8 @@ void Projector::run(const CloudView& v, const Frame& f, std::vector<float>* kept
       const std::uint32_t n = std::min(kChunk, (v.width - c0 + f.column_stride - 1) / f.column_stride);
       kernel(row + static_cast<std::size_t>(c0) * v.point_step, col_step, v.x_offset, v.y_offset, v.z_offset, n, f, c);
       keepClosest<kIndex, kKeep>(c, n, r * v.width + c0, f.column_stride, best, best_index, kept);
+      if (f.cluster)
+        recordChunk(c.bins, c.r2s, n);
     }
   }
 }
@@ -338,6 +341,8 @@ void Projector::runDepth(const DepthImageView& v, const Frame& f, std::vector<fl
       const std::uint32_t n = std::min<std::uint32_t>(kChunk, static_cast<std::uint32_t>(column_offsets_.size()) - k0);
       kernel(row + k0 * col_step, col_step, column_offsets_.data() + k0, dv, kx, ky, unit, n, f, c);
       keepClosest<false, kKeep>(c, n, 0, 0, best, nullptr, kept);
+      if (f.cluster)
+        recordChunk(c.bins, c.r2s, n);
     }
   }
 }
@@ -390,7 +395,29 @@ Projector::Frame Projector::start(const Eigen::Isometry3d& camera_to_reference, 
   f.column_stride = static_cast<std::uint32_t>(p.column_stride);
   // A ray from a camera at or below the floor never meets the floor in front of it.
   f.hole = p.hole_detection && t.z() > p.floor_height;
+  f.cluster = p.clusterRanges();
+  recorded_points_ = 0;
   return f;
+}
+
+void Projector::recordChunk(const std::int32_t* bins, const float* r2s, std::uint32_t n)
+{
+  if (point_bins_.size() < recorded_points_ + n)
+  {
+    point_bins_.resize(2 * (recorded_points_ + n));
+    point_r2s_.resize(2 * (recorded_points_ + n));
+  }
+  // Only obstacles (a rejected point has an infinite squared range): a branch-free compaction.
+  std::size_t k = recorded_points_;
+  std::int32_t* const out_bins = point_bins_.data();
+  float* const out_r2s = point_r2s_.data();
+  for (std::uint32_t i = 0; i < n; ++i)
+  {
+    out_bins[k] = bins[i];
+    out_r2s[k] = r2s[i];
+    k += r2s[i] < std::numeric_limits<float>::infinity() ? 1 : 0;
+  }
+  recorded_points_ = k;
 }
 
 void Projector::finish(const Frame& f, std::vector<float>& ranges)
@@ -401,6 +428,39 @@ void Projector::finish(const Frame& f, std::vector<float>& ranges)
   const float too_close = p.tooCloseValue();
   for (int b = 0; b < f.beams; ++b)
     ranges[b] = std::isinf(best_r2_[b]) ? no_return : best_r2_[b] < f.r2_min ? too_close : std::sqrt(best_r2_[b]);
+  if (!f.cluster)
+    return;
+
+  // Closest cluster: the points of a beam within kClusterWidth std of its closest point. Beams
+  // without a measurement (no return, too close) take no point (limit -1).
+  const std::size_t slots = best_r2_.size();
+  cluster_limit_r2_.assign(slots, -1.0f);
+  cluster_sum_.assign(slots, 0.0);
+  cluster_count_.assign(slots, 0);
+  for (int b = 0; b < f.beams; ++b)
+  {
+    if (std::isinf(best_r2_[b]) || best_r2_[b] < f.r2_min)
+      continue;  // no return, or too close: the closest point decides
+    const double limit = ranges[b] + Parameters::kClusterWidth * p.rangeNoiseStd(ranges[b]);
+    cluster_limit_r2_[b] = static_cast<float>(limit * limit);
+  }
+  for (std::size_t i = 0; i < recorded_points_; ++i)
+  {
+    const std::int32_t b = point_bins_[i];
+    if (point_r2s_[i] <= cluster_limit_r2_[b])
+    {
+      cluster_sum_[b] += std::sqrt(point_r2s_[i]);
+      ++cluster_count_[b];
+    }
+  }
+  for (int b = 0; b < f.beams; ++b)
+  {
+    if (cluster_count_[b] == 0)
+      continue;
+    const double closest = ranges[b];
+    const double cap = closest + Parameters::kClusterCap * p.rangeNoiseStd(closest);
+    ranges[b] = static_cast<float>(std::min(cluster_sum_[b] / cluster_count_[b], cap));
+  }
 }
 
 void Projector::project(const DepthImageView& image, const Eigen::Isometry3d& camera_to_reference,
