@@ -55,13 +55,16 @@ public:
   void project(const DepthImageView& image, const Eigen::Isometry3d& camera_to_reference, std::vector<float>& ranges,
                std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr);
 
-  /// Per-cloud constants of the inner loop (defined in projector.cpp).
+  /// Per-cloud constants of the inner loop, and where the inner loop records points for the
+  /// range noise model (defined in projector.cpp).
   struct Frame;
+  struct Record;
 
 private:
   Frame start(const Eigen::Isometry3d& camera_to_reference, std::vector<float>* kept_points);
   void finish(const Frame& frame, std::vector<float>& ranges);
-  void recordChunk(const std::int32_t* bins, const float* r2s, std::uint32_t n);
+  /// Room for n more recorded points (a null Record without a noise model).
+  Record recordSpace(const Frame& frame, std::uint32_t n);
   template <bool kHole, bool kKeep>
   void runDepth(const DepthImageView& image, const Frame& frame, std::vector<float>* kept_points);
   template <typename T, bool kHole, bool kIndex, bool kKeep>
