@@ -145,16 +145,26 @@ const DepthInput& roomDepth(std::uint32_t width, std::uint32_t height)
   return it->second;
 }
 
-void runImageCore(benchmark::State& state, std::uint32_t width, std::uint32_t height)
+void runImageCore(benchmark::State& state, std::uint32_t width, std::uint32_t height,
+                  const dfsc::Parameters& params = dfsc::Parameters())
 {
   const DepthInput& in = roomDepth(width, height);
-  dfsc::Projector projector{ dfsc::Parameters() };
+  dfsc::Projector projector{ params };
   std::vector<float> ranges;
   for (auto _ : state)
   {
     projector.project(in.view, in.camera_to_reference, ranges);
     benchmark::DoNotOptimize(ranges.data());
   }
+}
+
+// The same with the simulated camera's range noise model (closest-cluster mean per beam).
+void runImageCoreNoiseModel(benchmark::State& state, std::uint32_t width, std::uint32_t height)
+{
+  dfsc::Parameters params;
+  params.range_noise_std = 0.001;
+  params.range_noise_std_per_m2 = 0.001;
+  runImageCore(state, width, height, params);
 }
 
 void runCloudPath(benchmark::State& state, std::uint32_t width, std::uint32_t height)
@@ -208,6 +218,8 @@ BENCHMARK_CAPTURE(runImageCore, Depth640x480, 640u, 480u)->Unit(benchmark::kMill
 BENCHMARK_CAPTURE(runCloudPath, Depth640x480, 640u, 480u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runCloudCoreOnly, Depth640x480, 640u, 480u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runImageCore, Depth1280x720, 1280u, 720u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runImageCoreNoiseModel, Depth640x480, 640u, 480u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runImageCoreNoiseModel, Depth1280x720, 1280u, 720u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runCloudPath, Depth1280x720, 1280u, 720u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runCloudCoreOnly, Depth1280x720, 1280u, 720u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 
@@ -245,6 +257,15 @@ public:
       const double core = median(std::string("runCloudCoreOnly/") + frame);
       if (image > 0 && path > 0)
         std::printf("%-20s %15.4f %26.4f %7.1fx %18.4f\n", frame, image, path, path / image, core);
+    }
+    std::printf("\n%-20s %15s %26s %8s\n", "depth frame (16UC1)", "image core [ms]", "with range noise model [ms]",
+                "ratio");
+    for (const char* frame : { "Depth640x480", "Depth1280x720" })
+    {
+      const double image = median(std::string("runImageCore/") + frame);
+      const double noise = median(std::string("runImageCoreNoiseModel/") + frame);
+      if (image > 0 && noise > 0)
+        std::printf("%-20s %15.4f %26.4f %7.2fx\n", frame, image, noise, noise / image);
     }
   }
 

@@ -84,6 +84,9 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
 {
   m.doc() = "ROS-free core of depth_filter_scan_converter";
 
+  m.attr("RANGE_NOISE_CLUSTER_WIDTH") = dfsc::Parameters::kClusterWidth;
+  m.attr("RANGE_NOISE_CLUSTER_CAP") = dfsc::Parameters::kClusterCap;
+
   py::class_<dfsc::Parameters>(m, "Parameters")
     .def(py::init<>())
     .def_readwrite("reference_frame", &dfsc::Parameters::reference_frame)
@@ -98,6 +101,8 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
     .def_readwrite("too_close_at_range_min", &dfsc::Parameters::too_close_at_range_min)
     .def_readwrite("hole_detection", &dfsc::Parameters::hole_detection)
     .def_readwrite("hole_depth", &dfsc::Parameters::hole_depth)
+    .def_readwrite("range_noise_std", &dfsc::Parameters::range_noise_std)
+    .def_readwrite("range_noise_std_per_m2", &dfsc::Parameters::range_noise_std_per_m2)
     .def_readwrite("transform_tolerance", &dfsc::Parameters::transform_tolerance)
     .def_readwrite("row_stride", &dfsc::Parameters::row_stride)
     .def_readwrite("column_stride", &dfsc::Parameters::column_stride)

@@ -55,6 +55,8 @@ Parameters loadParameters(const ros::NodeHandle& pnh)
   readParam(pnh, "range_max", p.range_max, "double");
   readParam(pnh, "hole_detection", p.hole_detection, "bool");
   readParam(pnh, "hole_depth", p.hole_depth, "double");
+  readParam(pnh, "range_noise_std", p.range_noise_std, "double");
+  readParam(pnh, "range_noise_std_per_m2", p.range_noise_std_per_m2, "double");
   readParam(pnh, "transform_tolerance", p.transform_tolerance, "double");
   readParam(pnh, "row_stride", p.row_stride, "int");
   readParam(pnh, "column_stride", p.column_stride, "int");

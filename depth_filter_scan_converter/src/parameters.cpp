@@ -37,6 +37,9 @@ void Parameters::validate() const
   require(!std::isnan(range_max), "range_max", "must not be NaN");
   require(range_min < range_max, "range_min", "must be smaller than range_max");
   require(std::isfinite(hole_depth) && hole_depth >= 0.0, "hole_depth", "must be finite and >= 0");
+  require(std::isfinite(range_noise_std) && range_noise_std >= 0.0, "range_noise_std", "must be finite and >= 0 (m)");
+  require(std::isfinite(range_noise_std_per_m2) && range_noise_std_per_m2 >= 0.0, "range_noise_std_per_m2",
+          "must be finite and >= 0 (1/m)");
   require(std::isfinite(transform_tolerance) && transform_tolerance >= 0.0, "transform_tolerance",
           "must be finite and >= 0");
   require(row_stride >= 1, "row_stride", "must be >= 1");

@@ -67,6 +67,15 @@ double readField(const std::uint8_t* p, FieldType type)
   return std::numeric_limits<double>::quiet_NaN();
 }
 
+/// Where pass 3 appends the beam and squared range of every obstacle (the range noise model's
+/// closest-cluster pass needs them); bins == nullptr: nothing is recorded.
+struct Projector::Record
+{
+  std::int32_t* bins;
+  float* r2s;
+  std::size_t count;
+};
+
 /// Everything the inner loop needs, precomputed once per cloud in float.
 /// Bounds are clamped to +/-FLT_MAX so that +/-Inf and NaN points always fail the tests.
 struct Projector::Frame
@@ -80,7 +89,8 @@ struct Projector::Frame
   float a_min, inv_inc;  // exact angle_min for the bin formula
   int beams;
   std::uint32_t row_stride, column_stride;
-  bool hole;  // hole detection on, and the camera above the floor
+  bool hole;     // hole detection on, and the camera above the floor
+  bool cluster;  // beams read the closest cluster's mean (a range noise model is set)
 };
 
 Projector::Projector(const Parameters& params)
@@ -240,11 +250,18 @@ using DepthKernel = void (*)(const std::uint8_t*, std::size_t, const float*, flo
 template <bool kIndex, bool kKeep>
 __attribute__((always_inline)) inline void keepClosest(const Chunk& c, std::uint32_t n, std::uint32_t first_index,
                                                        std::uint32_t index_step, float* best, std::uint32_t* best_index,
-                                                       std::vector<float>* kept)
+                                                       std::vector<float>* kept, Projector::Record& record)
 {
   const float inf = std::numeric_limits<float>::infinity();
+  std::size_t k = record.count;
   for (std::uint32_t i = 0; i < n; ++i)
   {
+    if (record.bins)  // the same for the whole cloud: predicted; a compaction without branch
+    {
+      record.bins[k] = c.bins[i];
+      record.r2s[k] = c.r2s[i];
+      k += c.r2s[i] < inf ? 1 : 0;
+    }
     const std::int32_t b = c.bins[i];
     if (!kIndex)
     {
@@ -263,6 +280,7 @@ __attribute__((always_inline)) inline void keepClosest(const Chunk& c, std::uint
       kept->push_back(c.zs[i]);
     }
   }
+  record.count = k;
 }
 
 using Kernel = void (*)(const std::uint8_t*, std::size_t, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t,
@@ -305,7 +323,9 @@ void Projector::run(const CloudView& v, const Frame& f, std::vector<float>* kept
     {
       const std::uint32_t n = std::min(kChunk, (v.width - c0 + f.column_stride - 1) / f.column_stride);
       kernel(row + static_cast<std::size_t>(c0) * v.point_step, col_step, v.x_offset, v.y_offset, v.z_offset, n, f, c);
-      keepClosest<kIndex, kKeep>(c, n, r * v.width + c0, f.column_stride, best, best_index, kept);
+      Record record = recordSpace(f, n);
+      keepClosest<kIndex, kKeep>(c, n, r * v.width + c0, f.column_stride, best, best_index, kept, record);
+      recorded_points_ = record.count;
     }
   }
 }
@@ -337,7 +357,9 @@ void Projector::runDepth(const DepthImageView& v, const Frame& f, std::vector<fl
     {
       const std::uint32_t n = std::min<std::uint32_t>(kChunk, static_cast<std::uint32_t>(column_offsets_.size()) - k0);
       kernel(row + k0 * col_step, col_step, column_offsets_.data() + k0, dv, kx, ky, unit, n, f, c);
-      keepClosest<false, kKeep>(c, n, 0, 0, best, nullptr, kept);
+      Record record = recordSpace(f, n);
+      keepClosest<false, kKeep>(c, n, 0, 0, best, nullptr, kept, record);
+      recorded_points_ = record.count;
     }
   }
 }
@@ -390,7 +412,21 @@ Projector::Frame Projector::start(const Eigen::Isometry3d& camera_to_reference, 
   f.column_stride = static_cast<std::uint32_t>(p.column_stride);
   // A ray from a camera at or below the floor never meets the floor in front of it.
   f.hole = p.hole_detection && t.z() > p.floor_height;
+  f.cluster = p.clusterRanges();
+  recorded_points_ = 0;
   return f;
+}
+
+Projector::Record Projector::recordSpace(const Frame& f, std::uint32_t n)
+{
+  if (!f.cluster)
+    return Record{ nullptr, nullptr, 0 };
+  if (point_bins_.size() < recorded_points_ + n)
+  {
+    point_bins_.resize(2 * (recorded_points_ + n));
+    point_r2s_.resize(2 * (recorded_points_ + n));
+  }
+  return Record{ point_bins_.data(), point_r2s_.data(), recorded_points_ };
 }
 
 void Projector::finish(const Frame& f, std::vector<float>& ranges)
@@ -401,6 +437,53 @@ void Projector::finish(const Frame& f, std::vector<float>& ranges)
   const float too_close = p.tooCloseValue();
   for (int b = 0; b < f.beams; ++b)
     ranges[b] = std::isinf(best_r2_[b]) ? no_return : best_r2_[b] < f.r2_min ? too_close : std::sqrt(best_r2_[b]);
+  if (!f.cluster)
+    return;
+
+  // Closest cluster: the points of a beam within kClusterWidth std of its closest point. Beams
+  // without a measurement (no return, too close) take no point (limit -1).
+  // Consecutive points mostly fall into the same beam: kBanks interleaved accumulators per beam
+  // break the chain of dependent read-add-writes to one memory slot.
+  constexpr std::size_t kBanks = 4;
+  const std::size_t slots = best_r2_.size();
+  cluster_limit_r2_.assign(slots, -1.0f);
+  cluster_sum_.assign(slots * kBanks, 0.0);
+  cluster_count_.assign(slots * kBanks, 0);
+  for (int b = 0; b < f.beams; ++b)
+  {
+    if (std::isinf(best_r2_[b]) || best_r2_[b] < f.r2_min)
+      continue;  // no return, or too close: the closest point decides
+    const double limit = ranges[b] + Parameters::kClusterWidth * p.rangeNoiseStd(ranges[b]);
+    cluster_limit_r2_[b] = static_cast<float>(limit * limit);
+  }
+  const std::int32_t* const bins = point_bins_.data();
+  const float* const r2s = point_r2s_.data();
+  double* const sums = cluster_sum_.data();
+  std::uint32_t* const counts = cluster_count_.data();
+  const float* const limits = cluster_limit_r2_.data();
+  for (std::size_t i = 0; i < recorded_points_; ++i)
+  {
+    const std::int32_t b = bins[i];
+    const bool inside = r2s[i] <= limits[b];
+    const std::size_t slot = static_cast<std::size_t>(b) * kBanks + (i & (kBanks - 1));
+    sums[slot] += inside ? std::sqrt(r2s[i]) : 0.0f;
+    counts[slot] += inside ? 1 : 0;
+  }
+  for (int b = 0; b < f.beams; ++b)
+  {
+    double sum = 0.0;
+    std::uint32_t count = 0;
+    for (std::size_t k = 0; k < kBanks; ++k)
+    {
+      sum += sums[b * kBanks + k];
+      count += counts[b * kBanks + k];
+    }
+    if (count == 0)
+      continue;
+    const double closest = ranges[b];
+    const double cap = closest + Parameters::kClusterCap * p.rangeNoiseStd(closest);
+    ranges[b] = static_cast<float>(std::min(sum / count, cap));
+  }
 }
 
 void Projector::project(const DepthImageView& image, const Eigen::Isometry3d& camera_to_reference,

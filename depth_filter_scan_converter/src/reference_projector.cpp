@@ -2,6 +2,7 @@
 // benchmark baseline and as an independent implementation for the tests.
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "depth_filter_scan_converter/projector.h"
 
@@ -17,6 +18,7 @@ void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isom
   if (intensities)
     intensities->assign(with_intensity ? beams : 0, 0.0f);
   const Eigen::Vector3d origin = T.translation();
+  std::vector<std::pair<std::size_t, double>> beam_ranges;  // every obstacle, for clusterRanges()
 
   for (std::uint32_t r = 0; r < v.height; r += p.row_stride)
   {
@@ -47,6 +49,8 @@ void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isom
       std::size_t bin = static_cast<std::size_t>(std::lround((angle - p.angle_min) / p.angle_increment));
       if (bin >= beams)
         bin = beams - 1;
+      if (p.clusterRanges())
+        beam_ranges.emplace_back(bin, range);
       if (range < best[bin])
       {
         best[bin] = range;
@@ -60,6 +64,22 @@ void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isom
     ranges[b] = std::isinf(best[b])     ? no_return
                 : best[b] < p.range_min ? p.tooCloseValue()
                                         : static_cast<float>(best[b]);
+  if (!p.clusterRanges())
+    return;
+  std::vector<double> sum(beams, 0.0);
+  std::vector<std::size_t> count(beams, 0);
+  for (const auto& [bin, range] : beam_ranges)
+  {
+    if (best[bin] >= p.range_min && range <= best[bin] + Parameters::kClusterWidth * p.rangeNoiseStd(best[bin]))
+    {
+      sum[bin] += range;
+      ++count[bin];
+    }
+  }
+  for (std::size_t b = 0; b < beams; ++b)
+    if (count[b] > 0)
+      ranges[b] =
+        static_cast<float>(std::min(sum[b] / count[b], best[b] + Parameters::kClusterCap * p.rangeNoiseStd(best[b])));
 }
 
 }  // namespace depth_filter_scan_converter

@@ -667,6 +667,127 @@ TEST(CloudValidation, MissingIntensityFieldIsANoteNotAnError)
   EXPECT_EQ(note, "");
 }
 
+// ---------------------------------------------------------------- range noise model
+
+// Points of a beam at angle_min + b * angle_increment (spread over +-30 % of the beam), ranges
+// range + N(0, std), in the reference frame at z = 0.5 (inside the band).
+Points noisyBeamPoints(const dfsc::Parameters& p, std::size_t beam, int count, double range, double std,
+                       std::mt19937& rng)
+{
+  std::normal_distribution<double> noise(0.0, std);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3);
+  Points pts;
+  for (int i = 0; i < count; ++i)
+  {
+    const double a = p.angle_min + (static_cast<double>(beam) + jitter(rng)) * p.angle_increment;
+    const double r = range + noise(rng);
+    pts.emplace_back(r * std::cos(a), r * std::sin(a), 0.5);
+  }
+  return pts;
+}
+
+dfsc::Parameters simCameraNoise()
+{
+  dfsc::Parameters p;  // the simulated depth camera: std 1 mm + 1 mm per m^2 (2.6 cm at 5 m)
+  p.range_noise_std = 0.001;
+  p.range_noise_std_per_m2 = 0.001;
+  return p;
+}
+
+TEST(RangeNoise, NoisyWallReadsItsRangeNotItsClosestPoint)
+{
+  const dfsc::Parameters p = simCameraNoise();
+  const double wall = 5.0, std = p.rangeNoiseStd(wall);
+  std::mt19937 rng(7);
+  Points pts;
+  const std::size_t first = 700, beams = 40;  // 300 points per 0.25-degree beam, as the camera gives
+  for (std::size_t b = first; b < first + beams; ++b)
+  {
+    const Points beam = noisyBeamPoints(p, b, 300, wall, std, rng);
+    pts.insert(pts.end(), beam.begin(), beam.end());
+  }
+  const TestCloud cloud = makeCloud(pts);
+  const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+  dfsc::Parameters exact = p;
+  exact.range_noise_std = exact.range_noise_std_per_m2 = 0.0;
+  const std::vector<float> closest = project(exact, cloud, identity);
+  const std::vector<float> clustered = project(p, cloud, identity);
+  std::vector<float> reference;
+  dfsc::referenceProject(p, cloud.view(), identity, reference);
+  EXPECT_EQ(countDisagreements(clustered, reference), 0u);
+  double closest_bias = 0.0, clustered_bias = 0.0;
+  for (std::size_t b = first; b < first + beams; ++b)
+  {
+    closest_bias += (closest[b] - wall) / beams;
+    clustered_bias += (clustered[b] - wall) / beams;
+    // The mean of ~300 points (std / 17), unless the cap (closest + 3 std) bites on a beam whose
+    // closest point is unusually short: then a little short, the safe side.
+    EXPECT_NEAR(clustered[b], wall, std) << "beam " << b;
+  }
+  EXPECT_LT(closest_bias, -2.0 * std);          // the closest of 300 points: about -2.9 std
+  EXPECT_NEAR(clustered_bias, 0.0, 0.2 * std);  // 5 mm at 5 m
+  EXPECT_EQ(countFinite(clustered), beams);
+}
+
+TEST(RangeNoise, ObstacleInFrontOfAWallStaysAtItsRange)
+{
+  const dfsc::Parameters p = simCameraNoise();
+  std::mt19937 rng(11);
+  const std::size_t beam = 720;
+  // A chair leg at 3 m (20 noisy points) in front of a wall at 3.5 m (300 points).
+  Points pts = noisyBeamPoints(p, beam, 300, 3.5, p.rangeNoiseStd(3.5), rng);
+  const Points leg = noisyBeamPoints(p, beam, 20, 3.0, p.rangeNoiseStd(3.0), rng);
+  pts.insert(pts.end(), leg.begin(), leg.end());
+  const std::vector<float> ranges = project(p, makeCloud(pts), Eigen::Isometry3d::Identity());
+  EXPECT_NEAR(ranges[beam], 3.0, p.rangeNoiseStd(3.0));
+
+  // A single exact point at 2 m, 4 std in front of a dense exact surface: both are one cluster
+  // (within 6 std), and the cap keeps the beam within 3 std of the point.
+  const double near = 2.0, std = p.rangeNoiseStd(near);
+  Points close_pair = noisyBeamPoints(p, beam, 300, near + 4.0 * std, 1e-9, rng);
+  close_pair.emplace_back(near * std::cos(0.0), 0.0, 0.5);
+  const std::vector<float> capped = project(p, makeCloud(close_pair), Eigen::Isometry3d::Identity());
+  EXPECT_NEAR(capped[beam], near + 3.0 * std, 1e-5);
+}
+
+TEST(RangeNoise, HolesTooCloseAndNoReturnKeepTheirMeaning)
+{
+  dfsc::Parameters p = simCameraNoise();
+  p.hole_detection = true;
+  p.range_min = 0.3;
+  const Eigen::Isometry3d cam = cameraMount(1.0, 30 * kDeg);
+  const Vector3d hole(2.0, 0.3, -0.3);
+  const Vector3d too_close(0.2, -0.1, 0.5);  // 0.22 m < range_min
+  const TestCloud cloud = makeCloud(toCamera({ hole, too_close }, cam));
+  const std::vector<float> ranges = project(p, cloud, cam);
+  const Vector3d crossing = cam.translation() + (hole - cam.translation()) / 1.3;
+  EXPECT_NEAR(ranges[binOf(p, std::atan2(crossing.y(), crossing.x()))], std::hypot(crossing.x(), crossing.y()), 1e-4);
+  EXPECT_EQ(ranges[binOf(p, std::atan2(too_close.y(), too_close.x()))], -std::numeric_limits<float>::infinity());
+  EXPECT_EQ(countFinite(ranges), 1u);
+  EXPECT_EQ(ranges[0], std::numeric_limits<float>::infinity());
+}
+
+TEST(RangeNoise, BadNoiseParametersAreNamed)
+{
+  for (const auto& [name, value] : { std::pair<std::string, double>{ "range_noise_std", -0.01 },
+                                     { "range_noise_std", std::nan("") },
+                                     { "range_noise_std_per_m2", -1.0 },
+                                     { "range_noise_std_per_m2", std::numeric_limits<double>::infinity() } })
+  {
+    dfsc::Parameters p;
+    (name == "range_noise_std" ? p.range_noise_std : p.range_noise_std_per_m2) = value;
+    try
+    {
+      p.validate();
+      ADD_FAILURE() << name << " = " << value << " accepted";
+    }
+    catch (const std::invalid_argument& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("'" + name + "'"), std::string::npos) << e.what();
+    }
+  }
+}
+
 // ---------------------------------------------------------------- real data
 // ---------------------------------------------------------------- headers
 

@@ -34,6 +34,11 @@ Parameters randomParameters(fuzz::Generator& g)
   p.range_max = g.chance(0.1) ? std::numeric_limits<double>::infinity() : g.sometimesExtreme(0.5, 30.0, 0.05);
   p.hole_detection = g.chance(0.3);
   p.hole_depth = g.sometimesExtreme(0.0, 0.2, 0.02);
+  if (g.chance(0.5))  // the closest-cluster pass (range noise model)
+  {
+    p.range_noise_std = g.sometimesExtreme(0.0, 0.01, 0.05);
+    p.range_noise_std_per_m2 = g.sometimesExtreme(0.0, 0.005, 0.05);
+  }
   p.row_stride = g.chance(0.9) ? 1 : static_cast<int>(g.integer(0, 5));
   p.column_stride = g.chance(0.9) ? 1 : static_cast<int>(g.integer(0, 5));
   p.use_inf = g.chance(0.7);

@@ -112,6 +112,8 @@ def test_shipped_config_starts(ros_env, image):
         ("use_inf: false\nrange_max: .inf", "range_max"),
         ("reference_frame: ''", "reference_frame"),
         ("hole_depth: -0.1", "hole_depth"),
+        ("range_noise_std: -0.001", "range_noise_std"),
+        ("range_noise_std_per_m2: .nan", "range_noise_std_per_m2"),
         ("queue_size: 0", "queue_size"),
         ("depth_image_rectified: 1.5", "depth_image_rectified"),
         ("too_close_at_range_min: maybe", "too_close_at_range_min"),

@@ -23,7 +23,7 @@ class Key:
     """One parameter: type ('float', 'int', 'bool', 'str'), default, unit and limits."""
 
     def __init__(self, kind, default, unit="", lo=None, hi=None, lo_open=False,
-                 angle=None, nonempty=False, doc=""):
+                 angle=None, nonempty=False, doc="", finite=False):
         self.kind = kind
         self.default = default
         self.unit = unit
@@ -33,6 +33,7 @@ class Key:
         self.angle = angle  # None: any finite angle; else the largest |angle| the node accepts
         self.nonempty = nonempty
         self.doc = doc
+        self.finite = finite  # +-inf is not a value either
 
 
 INF = float("inf")
@@ -52,6 +53,10 @@ CONVERTER = {
                                   doc="a beam nearer than range_min reads range_min instead of -Inf"),
     "hole_detection": Key("bool", False),
     "hole_depth": Key("float", 0.05, "m", lo=0.0),
+    "range_noise_std": Key("float", 0.0, "m", lo=0.0, finite=True,
+                           doc="a point's range noise std at range 0 (0 and 0: closest point)"),
+    "range_noise_std_per_m2": Key("float", 0.0, "1/m", lo=0.0, finite=True,
+                                  doc="growth of that std with range^2 (depth cameras)"),
     "transform_tolerance": Key("float", 0.1, "s", lo=0.0),
     "row_stride": Key("int", 1, lo=1),
     "column_stride": Key("int", 1, lo=1),
@@ -142,6 +147,8 @@ def check_value(path, key, value):
         v = float(value)
         if math.isnan(v):
             return ["%s: NaN is not a value" % path]
+        if key.finite and not math.isfinite(v):
+            return ["%s: must be finite, got %g" % (path, v)]
         if key.angle is not None:
             if not math.isfinite(v):
                 return ["%s: angle must be finite, got %g" % (path, v)]

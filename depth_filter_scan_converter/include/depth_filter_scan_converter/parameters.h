@@ -23,6 +23,12 @@ struct Parameters
   bool too_close_at_range_min = false;  ///< too close is -Inf (REP 117) ... or range_min
   bool hole_detection = false;          ///< points far below the floor become obstacles
   double hole_depth = 0.05;             ///< how far below the floor a point is a hole
+  /// Range noise of one point, std = range_noise_std + range_noise_std_per_m2 * range^2 (a
+  /// depth camera's model). Both 0: each beam reads its closest point. Otherwise each beam reads
+  /// the mean of its points within kClusterWidth std of its closest point, at most kClusterCap
+  /// std beyond it: unbiased on a noisy surface, where the closest of many points is short.
+  double range_noise_std = 0.0;         ///< m
+  double range_noise_std_per_m2 = 0.0;  ///< 1/m
   double transform_tolerance = 0.1;     ///< how long a cloud may wait for its transform
   int row_stride = 1;                   ///< take every n-th row of an organized cloud
   int column_stride = 1;                ///< take every n-th column
@@ -32,6 +38,19 @@ struct Parameters
   bool publish_filtered_cloud = false;  ///< publish the kept points (for rviz)
   double tf_buffer_duration = 10.0;     ///< length of the tf buffer
   bool depth_image_rectified = true;    ///< depth images: intrinsics from camera_info's P, else K
+
+  /// The closest cluster of a beam: its points within kClusterWidth std of the closest one
+  /// (+-3 std around a surface whose closest point lies about 3 std short) ...
+  static constexpr double kClusterWidth = 6.0;
+  /// ... and the beam reads their mean, but never more than kClusterCap std beyond its closest
+  /// point: an obstacle is never pushed outward by more than the noise.
+  static constexpr double kClusterCap = 3.0;
+
+  /// True when the beams read the closest cluster's mean rather than the closest point.
+  bool clusterRanges() const { return range_noise_std > 0.0 || range_noise_std_per_m2 > 0.0; }
+
+  /// The noise std of a point at this range (m).
+  double rangeNoiseStd(double range) const { return range_noise_std + range_noise_std_per_m2 * range * range; }
 
   /// Throws std::invalid_argument naming the first bad parameter and why.
   void validate() const;

@@ -23,6 +23,10 @@ namespace depth_filter_scan_converter
 ///   clamped to the last beam, so a point on angle_max stays in bounds;
 /// - each beam keeps its closest obstacle; beams without one read noReturnValue(); a beam whose
 ///   closest obstacle is nearer than range_min reads tooCloseValue() (-Inf by default, REP 117);
+/// - with a range noise model (Parameters::clusterRanges()), a beam whose closest obstacle m is
+///   within range reads the mean range of its obstacles within kClusterWidth * std(m) of m, at
+///   most m + kClusterCap * std(m), instead of m: the closest of many noisy points of one
+///   surface is biased short by about 3 std;
 /// - NaN / Inf points are skipped.
 /// Beam angles come from fastAtan2 (error < kFastAtan2MaxError) and the arithmetic is float, so
 /// a point within a few micro-radians (or micrometres) of a border may land on either side.
@@ -51,12 +55,16 @@ public:
   void project(const DepthImageView& image, const Eigen::Isometry3d& camera_to_reference, std::vector<float>& ranges,
                std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr);
 
-  /// Per-cloud constants of the inner loop (defined in projector.cpp).
+  /// Per-cloud constants of the inner loop, and where the inner loop records points for the
+  /// range noise model (defined in projector.cpp).
   struct Frame;
+  struct Record;
 
 private:
   Frame start(const Eigen::Isometry3d& camera_to_reference, std::vector<float>* kept_points);
   void finish(const Frame& frame, std::vector<float>& ranges);
+  /// Room for n more recorded points (a null Record without a noise model).
+  Record recordSpace(const Frame& frame, std::uint32_t n);
   template <bool kHole, bool kKeep>
   void runDepth(const DepthImageView& image, const Frame& frame, std::vector<float>* kept_points);
   template <typename T, bool kHole, bool kIndex, bool kKeep>
@@ -68,6 +76,14 @@ private:
   std::vector<float> best_r2_;
   std::vector<std::uint32_t> best_index_;
   std::vector<float> column_offsets_;  // u - cx of every column taken from a depth image
+  // With a noise model: beam and squared range of every obstacle point of the cloud (the first
+  // recorded_points_), for the closest-cluster pass once every beam's closest point is known.
+  std::vector<std::int32_t> point_bins_;
+  std::vector<float> point_r2s_;
+  std::size_t recorded_points_ = 0;
+  std::vector<double> cluster_sum_;
+  std::vector<std::uint32_t> cluster_count_;
+  std::vector<float> cluster_limit_r2_;
 };
 
 /// The straightforward per-point converter (Eigen transform in double, then std::atan2 and
