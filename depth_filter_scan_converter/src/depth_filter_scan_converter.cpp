@@ -5,6 +5,7 @@
 
 #include <boost/bind/bind.hpp>
 #include <boost/make_shared.hpp>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 #include <type_traits>
@@ -38,6 +39,13 @@ const char* failureText(tf2_ros::filter_failure_reasons::FilterFailureReason rea
     default:
       return "no transform arrived before newer clouds pushed it out of the queue";
   }
+}
+
+bool transformIsFinite(const geometry_msgs::Transform& t)
+{
+  return std::isfinite(t.translation.x) && std::isfinite(t.translation.y) && std::isfinite(t.translation.z) &&
+         std::isfinite(t.rotation.x) && std::isfinite(t.rotation.y) && std::isfinite(t.rotation.z) &&
+         std::isfinite(t.rotation.w);
 }
 }  // namespace
 
@@ -76,13 +84,15 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
     input_topic_(nh.resolveName(input == DepthInput::Cloud ? "cloud_in" : "image")),
     params_(loadParameters(private_nh)),
     tf_buffer_(ros::Duration(params_.tf_buffer_duration)),
-    tf_listener_(tf_buffer_),
     projector_(params_),
     updater_(nh, private_nh, private_nh.getNamespace())
 {
   readParam(private_nh_, "queue_size", queue_size_, "int");
   if (queue_size_ < 1)
     throw std::invalid_argument("parameter 'queue_size' must be >= 1");
+
+  tf_sub_ = nh_.subscribe("/tf", 100, &DepthFilterScanConverter::tfArrived, this);
+  tf_static_sub_ = nh_.subscribe("/tf_static", 100, &DepthFilterScanConverter::tfStaticArrived, this);
 
   // Messages wait in the tf filter (never in a callback) until their transform is there. The
   // filter delivers through nh's callback queue, so processing runs in the node's own threads.
@@ -164,6 +174,40 @@ void DepthFilterScanConverter::connectCallback()
     image_sub_.unsubscribe();
     info_sub_.unsubscribe();
     subscribed_ = false;
+  }
+}
+
+void DepthFilterScanConverter::addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event,
+                                             bool is_static)
+{
+  // tf_buffer_ locks itself; the margin is the one the headers of our inputs get (headerProblem).
+  const double margin = params_.tf_buffer_duration + params_.transform_tolerance;
+  const std::string& authority = event.getPublisherName();
+  for (const auto& t : event.getMessage()->transforms)
+  {
+    std::string why = stampProblem(t.header.stamp.sec, t.header.stamp.nsec, margin);
+    if (why.empty() && !transformIsFinite(t.transform))
+      why = "translation or rotation is not finite (tf2 itself refuses only NaN)";
+    if (why.empty())
+      try
+      {
+        tf_buffer_.setTransform(t, authority, is_static);
+      }
+      catch (const std::exception& e)
+      {
+        why = e.what();
+      }
+    if (why.empty())
+      continue;
+    // Throttled per frame pair: one faulty publisher must not hide another.
+    std::lock_guard<std::mutex> lock(tf_warning_mutex_);
+    const std::string pair = "'" + t.header.frame_id + "' -> '" + t.child_frame_id + "'";
+    if (warned_transforms_.size() > 100)
+      warned_transforms_.clear();
+    if (due(warned_transforms_[pair]))
+      ROS_WARN("[%s] ignored the transform %s from %s on %s (stamp %s): %s", private_nh_.getNamespace().c_str(),
+               pair.c_str(), authority.c_str(), is_static ? "/tf_static" : "/tf",
+               stampText(t.header.stamp.sec, t.header.stamp.nsec).c_str(), why.c_str());
   }
 }
 
@@ -348,8 +392,15 @@ void DepthFilterScanConverter::process(const boost::shared_ptr<const M>& cloud)
   Eigen::Isometry3d camera_to_reference;
   try
   {
-    camera_to_reference = tf2::transformToEigen(
-      tf_buffer_.lookupTransform(params_.reference_frame, tfFrameId(cloud->header.frame_id), cloud->header.stamp));
+    const auto transform =
+      tf_buffer_.lookupTransform(params_.reference_frame, tfFrameId(cloud->header.frame_id), cloud->header.stamp);
+    // Each stored transform is finite (addTransforms), but a chain of them can sum to infinity.
+    if (!transformIsFinite(transform.transform))
+      throw tf2::TransformException("the transform '" + tfFrameId(cloud->header.frame_id) + "' -> '" +
+                                    params_.reference_frame + "' at " +
+                                    stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec) +
+                                    " is not finite (a chain of transforms sums to infinity)");
+    camera_to_reference = tf2::transformToEigen(transform);
   }
   catch (const tf2::TransformException& e)
   {
