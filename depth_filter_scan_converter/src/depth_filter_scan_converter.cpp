@@ -3,10 +3,12 @@
 #include <sensor_msgs/LaserScan.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include <algorithm>
 #include <boost/bind/bind.hpp>
 #include <boost/make_shared.hpp>
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <stdexcept>
 #include <type_traits>
 
@@ -177,8 +179,7 @@ void DepthFilterScanConverter::connectCallback()
   }
 }
 
-void DepthFilterScanConverter::addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event,
-                                             bool is_static)
+void DepthFilterScanConverter::addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static)
 {
   // tf_buffer_ locks itself; the margin is the one the headers of our inputs get (headerProblem).
   const double margin = params_.tf_buffer_duration + params_.transform_tolerance;
@@ -224,6 +225,14 @@ void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message
     if (!problem.empty())
     {
       dropMalformed(problem, message->header.frame_id);
+      return;
+    }
+    // The usual case, the transform already there: convert now, without the filter's extra trip
+    // through the callback queue (and its second tf query).
+    const tf2::BufferCore& transforms = tf_buffer_;
+    if (transforms.canTransform(params_.reference_frame, tfFrameId(message->header.frame_id), message->header.stamp))
+    {
+      convert(*message, Arrival{ message.get(), ros::Time(), info });
       return;
     }
     arrivals_.push_back({ message.get(), ros::Time::now(), info });
@@ -280,8 +289,15 @@ std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& head
 void DepthFilterScanConverter::dropMalformed(const std::string& reason, const std::string& frame_id)
 {
   ++malformed_;
-  // A new kind of defect is reported at once, the same one again at most every 5 s.
-  if (reason != last_malformed_reason_)
+  // A new kind of defect is reported at once, the same one again at most every 5 s. Reasons
+  // carry numbers (stamps, sizes) that change from message to message: the kind is the text
+  // without them, or a stream of empty frame_ids would be warned about once per message.
+  const auto kind = [](const std::string& text) {
+    std::string k;
+    std::copy_if(text.begin(), text.end(), std::back_inserter(k), [](char c) { return c < '0' || c > '9'; });
+    return k;
+  };
+  if (kind(reason) != kind(last_malformed_reason_))
     warned_malformed_ = ros::WallTime();
   last_malformed_reason_ = reason;
   if (due(warned_malformed_))
@@ -359,15 +375,23 @@ std::string DepthFilterScanConverter::viewOf(const Image& image, const Arrival& 
 }
 
 template <class M>
-void DepthFilterScanConverter::process(const boost::shared_ptr<const M>& cloud)
+void DepthFilterScanConverter::process(const boost::shared_ptr<const M>& message)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  Arrival arrival;
+  takeArrival(message.get(), arrival);
+  convert(*message, arrival);
+}
+
+template <class M>
+void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
 {
   const auto start = std::chrono::steady_clock::now();
-  std::lock_guard<std::mutex> lock(mutex_);
+  const M* const cloud = &message;
   const std::string& name = private_nh_.getNamespace();
 
   // "How long a cloud may wait for its transform": a late scan is worse than none for a planner.
-  Arrival arrival;
-  if (takeArrival(cloud.get(), arrival))
+  if (!arrival.time.isZero())
   {
     const double waited = (ros::Time::now() - arrival.time).toSec();
     if (waited > params_.transform_tolerance)

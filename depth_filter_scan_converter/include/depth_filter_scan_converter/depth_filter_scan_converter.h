@@ -62,7 +62,8 @@ private:
   using Config = DepthFilterScanConverterConfig;
   using ImageSync = message_filters::Synchronizer<message_filters::sync_policies::ExactTime<Image, CameraInfo>>;
 
-  /// When a message waiting for its transform came in, and (images) its camera_info.
+  /// When a message waiting for its transform came in (zero: it did not wait), and (images) its
+  /// camera_info.
   struct Arrival
   {
     const void* message = nullptr;
@@ -85,9 +86,13 @@ private:
   template <class M>
   void transformFailed(const boost::shared_ptr<const M>& message,
                        tf2_ros::filter_failure_reasons::FilterFailureReason reason);
-  /// Both inputs, once the transform is there: freshness, view, projection, publishing.
+  /// Both inputs, from the tf filter once the transform is there.
   template <class M>
   void process(const boost::shared_ptr<const M>& message);
+  /// Freshness, view, projection, publishing; mutex_ held. arrival.time is zero for a message
+  /// that never waited for its transform.
+  template <class M>
+  void convert(const M& message, const Arrival& arrival);
   std::string viewOf(const Cloud& cloud, const Arrival& arrival, CloudView& view);
   std::string viewOf(const Image& image, const Arrival& arrival, DepthImageView& view);
   void imageArrived(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info);
