@@ -49,6 +49,24 @@ bool transformIsFinite(const geometry_msgs::Transform& t)
          std::isfinite(t.rotation.x) && std::isfinite(t.rotation.y) && std::isfinite(t.rotation.z) &&
          std::isfinite(t.rotation.w);
 }
+
+// Why tf2 would refuse the transform, or "" when it takes it. tf2 checks these too, but logs
+// each refusal without throttle (a faulty publisher at 100 Hz floods the log); an infinite
+// translation it does not refuse at all.
+std::string transformProblem(const geometry_msgs::TransformStamped& t)
+{
+  if (t.header.frame_id.empty() || t.child_frame_id.empty())
+    return "frame_id or child_frame_id is empty";
+  if (tfFrameId(t.header.frame_id) == tfFrameId(t.child_frame_id))
+    return "a frame cannot be its own parent";
+  if (!transformIsFinite(t.transform))
+    return "translation or rotation is not finite (tf2 itself refuses only NaN)";
+  const auto& q = t.transform.rotation;
+  // tf2's own limit for a normalised quaternion.
+  if (std::fabs(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w - 1.0) > 0.01)
+    return "the rotation is not a unit quaternion";
+  return {};
+}
 }  // namespace
 
 Parameters loadParameters(const ros::NodeHandle& pnh)
@@ -187,8 +205,8 @@ void DepthFilterScanConverter::addTransforms(const ros::MessageEvent<const tf2_m
   for (const auto& t : event.getMessage()->transforms)
   {
     std::string why = stampProblem(t.header.stamp.sec, t.header.stamp.nsec, margin);
-    if (why.empty() && !transformIsFinite(t.transform))
-      why = "translation or rotation is not finite (tf2 itself refuses only NaN)";
+    if (why.empty())
+      why = transformProblem(t);
     if (why.empty())
       try
       {

@@ -2,9 +2,10 @@
 near 2^32 s (tf2 adds its cache length to the stamp, roscpp throws "Time is out of dual 32-bit
 range", and through tf2_ros::TransformListener that aborted the process and a whole nodelet
 manager) and one with an infinite translation (tf2 refuses only NaN) are ignored, each named in a
-warning, and clouds keep being converted; a cloud whose camera -> robot transform is not finite
-(a chain of finite transforms can sum to infinity) is dropped and counted with that reason, not
-published as a scan of no returns."""
+warning, and clouds keep being converted. So are the transforms tf2 refuses itself, but with
+an unthrottled error per message (no child frame, a frame its own parent, a zero quaternion).
+A cloud whose camera -> robot transform is not finite (a chain of finite transforms can sum to
+infinity) is dropped and counted with that reason, not published as a scan of no returns."""
 import json
 import subprocess
 import sys
@@ -63,6 +64,11 @@ tf_static.publish(TFMessage([transform('base_link', 'camera', 0.0), transform('b
 time.sleep(0.5)
 tf.publish(TFMessage([transform('base_link', 'late', 0.0, secs=4294967290)]))
 tf.publish(TFMessage([transform('base_link', 'lidar', math.inf)]))
+# What tf2 refuses itself, but with an error per message: ours are throttled per frame pair.
+zero_rotation = transform('base_link', 'tilted', 0.0)
+zero_rotation.transform.rotation.w = 0.0
+for i in range(5):
+    tf.publish(TFMessage([zero_rotation, transform('base_link', 'base_link', 0.0), transform('base_link', '', 0.0)]))
 time.sleep(0.5)
 for i in range(20):
     clouds.publish(cloud('camera' if i % 2 == 0 else 'far_camera'))
@@ -91,6 +97,9 @@ def test_faulty_transforms_are_ignored_and_conversion_goes_on(ros_env, nodelet):
     # Both faulty transforms are named, and the clouds of the good camera are converted.
     assert "'base_link' -> 'late' from /tf_fault_feed" in out and "4294967290.000000000" in out, out
     assert "'base_link' -> 'lidar'" in out and "not finite" in out, out
+    assert "'base_link' -> 'tilted'" in out and "not a unit quaternion" in out, out
+    assert "own parent" in out and "child_frame_id is empty" in out, out
+    assert out.count("'base_link' -> 'tilted'") == 1 and "TF_" not in out, out  # throttled; tf2 never logs
     assert len(result["camera"]) >= 8 and min(result["camera"]) == 20, (result, out)
     # The camera whose transform sums to infinity gets no scan, and the drops are counted and named.
     assert result["far_camera"] == [], (result, out)
