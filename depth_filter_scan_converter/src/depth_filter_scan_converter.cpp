@@ -3,9 +3,12 @@
 #include <sensor_msgs/LaserScan.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include <algorithm>
 #include <boost/bind/bind.hpp>
 #include <boost/make_shared.hpp>
+#include <cmath>
 #include <cstring>
+#include <iterator>
 #include <stdexcept>
 #include <type_traits>
 
@@ -38,6 +41,31 @@ const char* failureText(tf2_ros::filter_failure_reasons::FilterFailureReason rea
     default:
       return "no transform arrived before newer clouds pushed it out of the queue";
   }
+}
+
+bool transformIsFinite(const geometry_msgs::Transform& t)
+{
+  return std::isfinite(t.translation.x) && std::isfinite(t.translation.y) && std::isfinite(t.translation.z) &&
+         std::isfinite(t.rotation.x) && std::isfinite(t.rotation.y) && std::isfinite(t.rotation.z) &&
+         std::isfinite(t.rotation.w);
+}
+
+// Why tf2 would refuse the transform, or "" when it takes it. tf2 checks these too, but logs
+// each refusal without throttle (a faulty publisher at 100 Hz floods the log); an infinite
+// translation it does not refuse at all.
+std::string transformProblem(const geometry_msgs::TransformStamped& t)
+{
+  if (t.header.frame_id.empty() || t.child_frame_id.empty())
+    return "frame_id or child_frame_id is empty";
+  if (tfFrameId(t.header.frame_id) == tfFrameId(t.child_frame_id))
+    return "a frame cannot be its own parent";
+  if (!transformIsFinite(t.transform))
+    return "translation or rotation is not finite (tf2 itself refuses only NaN)";
+  const auto& q = t.transform.rotation;
+  // tf2's own limit for a normalised quaternion.
+  if (std::fabs(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w - 1.0) > 0.01)
+    return "the rotation is not a unit quaternion";
+  return {};
 }
 }  // namespace
 
@@ -78,13 +106,15 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
     input_topic_(nh.resolveName(input == DepthInput::Cloud ? "cloud_in" : "image")),
     params_(loadParameters(private_nh)),
     tf_buffer_(ros::Duration(params_.tf_buffer_duration)),
-    tf_listener_(tf_buffer_),
     projector_(params_),
     updater_(nh, private_nh, private_nh.getNamespace())
 {
   readParam(private_nh_, "queue_size", queue_size_, "int");
   if (queue_size_ < 1)
     throw std::invalid_argument("parameter 'queue_size' must be >= 1");
+
+  tf_sub_ = nh_.subscribe("/tf", 100, &DepthFilterScanConverter::tfArrived, this);
+  tf_static_sub_ = nh_.subscribe("/tf_static", 100, &DepthFilterScanConverter::tfStaticArrived, this);
 
   // Messages wait in the tf filter (never in a callback) until their transform is there. The
   // filter delivers through nh's callback queue, so processing runs in the node's own threads.
@@ -169,6 +199,39 @@ void DepthFilterScanConverter::connectCallback()
   }
 }
 
+void DepthFilterScanConverter::addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static)
+{
+  // tf_buffer_ locks itself; the margin is the one the headers of our inputs get (headerProblem).
+  const double margin = params_.tf_buffer_duration + params_.transform_tolerance;
+  const std::string& authority = event.getPublisherName();
+  for (const auto& t : event.getMessage()->transforms)
+  {
+    std::string why = stampProblem(t.header.stamp.sec, t.header.stamp.nsec, margin);
+    if (why.empty())
+      why = transformProblem(t);
+    if (why.empty())
+      try
+      {
+        tf_buffer_.setTransform(t, authority, is_static);
+      }
+      catch (const std::exception& e)
+      {
+        why = e.what();
+      }
+    if (why.empty())
+      continue;
+    // Throttled per frame pair: one faulty publisher must not hide another.
+    std::lock_guard<std::mutex> lock(tf_warning_mutex_);
+    const std::string pair = "'" + t.header.frame_id + "' -> '" + t.child_frame_id + "'";
+    if (warned_transforms_.size() > 100)
+      warned_transforms_.clear();
+    if (due(warned_transforms_[pair]))
+      ROS_WARN("[%s] ignored the transform %s from %s on %s (stamp %s): %s", private_nh_.getNamespace().c_str(),
+               pair.c_str(), authority.c_str(), is_static ? "/tf_static" : "/tf",
+               stampText(t.header.stamp.sec, t.header.stamp.nsec).c_str(), why.c_str());
+  }
+}
+
 template <class M>
 void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message, const CameraInfo::ConstPtr& info,
                                        tf2_ros::MessageFilter<M>& filter)
@@ -182,6 +245,14 @@ void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message
     if (!problem.empty())
     {
       dropMalformed(problem, message->header.frame_id);
+      return;
+    }
+    // The usual case, the transform already there: convert now, without the filter's extra trip
+    // through the callback queue (and its second tf query).
+    const tf2::BufferCore& transforms = tf_buffer_;
+    if (transforms.canTransform(params_.reference_frame, tfFrameId(message->header.frame_id), message->header.stamp))
+    {
+      convert(*message, Arrival{ message.get(), ros::Time(), info });
       return;
     }
     arrivals_.push_back({ message.get(), ros::Time::now(), info });
@@ -238,8 +309,15 @@ std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& head
 void DepthFilterScanConverter::dropMalformed(const std::string& reason, const std::string& frame_id)
 {
   ++malformed_;
-  // A new kind of defect is reported at once, the same one again at most every 5 s.
-  if (reason != last_malformed_reason_)
+  // A new kind of defect is reported at once, the same one again at most every 5 s. Reasons
+  // carry numbers (stamps, sizes) that change from message to message: the kind is the text
+  // without them, or a stream of empty frame_ids would be warned about once per message.
+  const auto kind = [](const std::string& text) {
+    std::string k;
+    std::copy_if(text.begin(), text.end(), std::back_inserter(k), [](char c) { return c < '0' || c > '9'; });
+    return k;
+  };
+  if (kind(reason) != kind(last_malformed_reason_))
     warned_malformed_ = ros::WallTime();
   last_malformed_reason_ = reason;
   if (due(warned_malformed_))
@@ -317,15 +395,23 @@ std::string DepthFilterScanConverter::viewOf(const Image& image, const Arrival& 
 }
 
 template <class M>
-void DepthFilterScanConverter::process(const boost::shared_ptr<const M>& cloud)
+void DepthFilterScanConverter::process(const boost::shared_ptr<const M>& message)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  Arrival arrival;
+  takeArrival(message.get(), arrival);
+  convert(*message, arrival);
+}
+
+template <class M>
+void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
 {
   const auto start = std::chrono::steady_clock::now();
-  std::lock_guard<std::mutex> lock(mutex_);
+  const M* const cloud = &message;
   const std::string& name = private_nh_.getNamespace();
 
   // "How long a cloud may wait for its transform": a late scan is worse than none for a planner.
-  Arrival arrival;
-  if (takeArrival(cloud.get(), arrival))
+  if (!arrival.time.isZero())
   {
     const double waited = (ros::Time::now() - arrival.time).toSec();
     if (waited > params_.transform_tolerance)
@@ -350,8 +436,15 @@ void DepthFilterScanConverter::process(const boost::shared_ptr<const M>& cloud)
   Eigen::Isometry3d camera_to_reference;
   try
   {
-    camera_to_reference = tf2::transformToEigen(
-      tf_buffer_.lookupTransform(params_.reference_frame, tfFrameId(cloud->header.frame_id), cloud->header.stamp));
+    const auto transform =
+      tf_buffer_.lookupTransform(params_.reference_frame, tfFrameId(cloud->header.frame_id), cloud->header.stamp);
+    // Each stored transform is finite (addTransforms), but a chain of them can sum to infinity.
+    if (!transformIsFinite(transform.transform))
+      throw tf2::TransformException("the transform '" + tfFrameId(cloud->header.frame_id) + "' -> '" +
+                                    params_.reference_frame + "' at " +
+                                    stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec) +
+                                    " is not finite (a chain of transforms sums to infinity)");
+    camera_to_reference = tf2::transformToEigen(transform);
   }
   catch (const tf2::TransformException& e)
   {

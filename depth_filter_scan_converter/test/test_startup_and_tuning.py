@@ -210,3 +210,26 @@ def test_diagnostics_are_published(ros_env):
         assert key in r.stdout, key
     # The hardware id names this converter (one per camera), not the package.
     assert 'hardware_id: "/conv_diag"' in r.stdout, r.stdout
+
+
+def test_malformed_warnings_are_throttled_though_stamps_differ(ros_env):
+    # The reason names each cloud's stamp; a stream of the same defect must still be warned about
+    # once per 5 s, not once per cloud (it was, before the throttle ignored the numbers).
+    load_params(ros_env, "conv_throttle")
+    p = start(ros_env, "conv_throttle")
+    listener = subprocess.Popen(["rostopic", "echo", "/scan"], env=ros_env, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+    feed = subprocess.Popen(["rostopic", "pub", "-s", "-r", "20", "/cloud_in", "sensor_msgs/PointCloud2",
+                             "{header: {stamp: now, frame_id: ''}}"], env=ros_env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    try:
+        time.sleep(4.0)
+        alive = p.poll() is None
+    finally:
+        for q in (feed, listener):
+            q.send_signal(signal.SIGINT)
+            q.wait(timeout=20)
+        out = stop(p)
+    assert alive, out
+    warnings = [line for line in out.splitlines() if "dropped a malformed cloud" in line]
+    assert 1 <= len(warnings) <= 2 and "empty frame_id" in warnings[0], out

@@ -12,12 +12,13 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/buffer.h>
+#include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/message_filter.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <chrono>
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -61,7 +62,8 @@ private:
   using Config = DepthFilterScanConverterConfig;
   using ImageSync = message_filters::Synchronizer<message_filters::sync_policies::ExactTime<Image, CameraInfo>>;
 
-  /// When a message waiting for its transform came in, and (images) its camera_info.
+  /// When a message waiting for its transform came in (zero: it did not wait), and (images) its
+  /// camera_info.
   struct Arrival
   {
     const void* message = nullptr;
@@ -70,6 +72,13 @@ private:
   };
 
   void connectCallback();
+  /// Feeds /tf and /tf_static into tf_buffer_ instead of tf2_ros::TransformListener, which lets
+  /// a stamp near 2^32 s abort the process (tf2 adds its cache length to it) and stores
+  /// transforms with an infinite translation (tf2 refuses only NaN).
+  void addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static);
+  // Member functions, not lambdas: roscpp passes a lambda the message alone, without its publisher.
+  void tfArrived(const ros::MessageEvent<const tf2_msgs::TFMessage>& event) { addTransforms(event, false); }
+  void tfStaticArrived(const ros::MessageEvent<const tf2_msgs::TFMessage>& event) { addTransforms(event, true); }
   /// Both inputs: header checks, then into the tf filter.
   template <class M>
   void arrived(const boost::shared_ptr<const M>& message, const CameraInfo::ConstPtr& info,
@@ -77,9 +86,13 @@ private:
   template <class M>
   void transformFailed(const boost::shared_ptr<const M>& message,
                        tf2_ros::filter_failure_reasons::FilterFailureReason reason);
-  /// Both inputs, once the transform is there: freshness, view, projection, publishing.
+  /// Both inputs, from the tf filter once the transform is there.
   template <class M>
   void process(const boost::shared_ptr<const M>& message);
+  /// Freshness, view, projection, publishing; mutex_ held. arrival.time is zero for a message
+  /// that never waited for its transform.
+  template <class M>
+  void convert(const M& message, const Arrival& arrival);
   std::string viewOf(const Cloud& cloud, const Arrival& arrival, CloudView& view);
   std::string viewOf(const Image& image, const Arrival& arrival, DepthImageView& view);
   void imageArrived(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info);
@@ -103,7 +116,7 @@ private:
   int queue_size_ = 10;
 
   tf2_ros::Buffer tf_buffer_;
-  tf2_ros::TransformListener tf_listener_;
+  ros::Subscriber tf_sub_, tf_static_sub_;
   message_filters::Subscriber<Cloud> cloud_sub_;
   std::unique_ptr<tf2_ros::MessageFilter<Cloud>> cloud_filter_;
   // Images wait for the camera_info of their stamp (ExactTime, queue_size frames), as
@@ -134,6 +147,8 @@ private:
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0;
   std::string last_malformed_reason_, last_tf_reason_;
   bool warned_slash_ = false;
+  std::mutex tf_warning_mutex_;  // tf callbacks may run beside processing (multi-threaded manager)
+  std::map<std::string, ros::WallTime> warned_transforms_;  // per parent -> child pair
   ros::WallTime warned_tf_, warned_late_, warned_malformed_, warned_intensity_, warned_info_;
 };
 

@@ -1,0 +1,139 @@
+#!/usr/bin/python3
+"""Where the converter node's work per cloud goes, in instructions (valgrind's callgrind: the
+same count on every run, unlike CPU time on a shared machine).
+
+Starts its own roscore on a free port and the standalone converter node (shipped parameters)
+under callgrind, instrumentation off until the node is connected; then a separate Python
+process publishes N organized 320 x 163 clouds (52,160 points of 16 bytes, a camera 0.5 m high
+looking forward at depths of 2-4 m) at 10 Hz and listens to the scans. The node's instructions
+are split into
+
+- transport: roscpp receiving and deserialising the clouds (MessageDeserializer::deserialize),
+  what any node subscribing to them pays;
+- core: Projector::project;
+- glue: everything else (header checks, tf, the tf filter, scan allocation and publishing,
+  diagnostics, roscpp's poll and timer threads).
+
+Run after sourcing the build's devel/setup.bash (valgrind must be installed):
+
+    /usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cost.py [--clouds 100]
+"""
+import argparse
+import os
+import re
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+FEED = r"""
+import os, sys, time, numpy as np, rospy
+from geometry_msgs.msg import TransformStamped
+from sensor_msgs.msg import LaserScan, PointCloud2, PointField
+from tf2_msgs.msg import TFMessage
+count, flag = int(sys.argv[1]), sys.argv[2]
+rospy.init_node('node_cost_feed')
+W, H = 320, 163
+v, u = np.mgrid[0:H, 0:W].astype(np.float32)
+z = 2.0 + 2.0 * np.random.default_rng(0).random((H, W)).astype(np.float32)
+pts = np.zeros((H, W, 4), np.float32)
+pts[..., 0], pts[..., 1], pts[..., 2] = (u - W / 2) / 300.0 * z, (v - H / 2) / 300.0 * z, z
+m = PointCloud2()
+m.header.frame_id, m.height, m.width = 'camera', H, W
+m.fields = [PointField(name=c, offset=4 * i, datatype=PointField.FLOAT32, count=1) for i, c in enumerate('xyz')]
+m.point_step, m.row_step, m.data = 16, 16 * W, pts.tobytes()
+t = TransformStamped()
+t.header.frame_id, t.child_frame_id = 'base_link', 'camera'
+t.transform.translation.z = 0.5
+t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transform.rotation.w = -0.5, 0.5, -0.5, 0.5
+static = rospy.Publisher('/tf_static', TFMessage, queue_size=1, latch=True)
+static.publish(TFMessage([t]))
+pub = rospy.Publisher('/cloud_in', PointCloud2, queue_size=5)
+scans = [0]
+rospy.Subscriber('/scan', LaserScan, lambda s: scans.__setitem__(0, scans[0] + 1), queue_size=50)
+while pub.get_num_connections() == 0:
+    time.sleep(0.05)
+time.sleep(1.0)
+print('ready', flush=True)
+while not os.path.exists(flag):
+    time.sleep(0.05)
+for i in range(count):
+    m.header.stamp = rospy.Time.now()
+    pub.publish(m)
+    time.sleep(0.1)
+time.sleep(1.0)
+print('scans', scans[0], flush=True)
+"""
+
+PARTS = {
+    "transport": r"ros::MessageDeserializer::deserialize\(\)",
+    "core": r"depth_filter_scan_converter::Projector::project\(",
+}
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def inclusive(annotated, pattern):
+    for line in annotated.splitlines():
+        if re.search(pattern, line):
+            return int(line.split()[0].replace(",", ""))
+    return 0
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--clouds", type=int, default=100)
+    args = ap.parse_args()
+    tmp = tempfile.mkdtemp(prefix="node_cost_")
+    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % free_port(), ROS_HOME=tmp, ROS_LOG_DIR=tmp)
+    port = env["ROS_MASTER_URI"].rsplit(":", 1)[1]
+    core = subprocess.Popen(["roscore", "-p", port], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    node = feed = None
+    try:
+        while subprocess.run(["rosparam", "list"], env=env, capture_output=True).returncode != 0:
+            time.sleep(0.3)
+        subprocess.run(["rosparam", "load", os.path.join(PKG, "config", "depth_filter_scan_converter.yaml"), "/conv"],
+                       env=env, check=True)
+        binary = subprocess.run(["catkin_find", "--libexec", "depth_filter_scan_converter",
+                                 "depth_filter_scan_converter_node"], env=env, capture_output=True,
+                                text=True).stdout.split()[0]
+        out = os.path.join(tmp, "callgrind.out")
+        node = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no", "--callgrind-out-file=" + out,
+                                 binary, "__name:=conv"], env=env, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+        flag = os.path.join(tmp, "go")
+        feed = subprocess.Popen([sys.executable, "-c", FEED, str(args.clouds), flag], env=env, stdout=subprocess.PIPE,
+                                text=True)
+        assert feed.stdout.readline().strip() == "ready"
+        subprocess.run(["callgrind_control", "-i", "on", str(node.pid)], check=True, capture_output=True)
+        open(flag, "w").close()
+        scans = int(feed.stdout.readline().split()[1])
+        subprocess.run(["callgrind_control", "-i", "off", str(node.pid)], check=True, capture_output=True)
+    finally:
+        for p in (feed, node, core):
+            if p is not None and p.poll() is None:
+                p.send_signal(2)
+                p.wait(timeout=60)
+    annotated = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", out], capture_output=True,
+                               text=True).stdout
+    total = int(re.search(r"([0-9,]+) \(100.0%\)\s+PROGRAM TOTALS", annotated).group(1).replace(",", ""))
+    parts = {name: inclusive(annotated, pattern) for name, pattern in PARTS.items()}
+    parts["glue"] = total - sum(parts.values())
+    print("%d clouds sent, %d scans back" % (args.clouds, scans))
+    print("| part | instructions per cloud | share |")
+    print("|---|---|---|")
+    for name in ("transport", "core", "glue"):
+        print("| %s | %.0f k | %.1f %% |" % (name, parts[name] / args.clouds / 1e3, 100.0 * parts[name] / total))
+    print("glue / core: %.3f" % (parts["glue"] / parts["core"] if parts["core"] else float("nan")))
+    return 0 if scans > 0 else 3
+
+
+if __name__ == "__main__":
+    sys.exit(main())
