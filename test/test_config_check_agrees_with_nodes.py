@@ -45,7 +45,7 @@ CONVERTER_CHANGES = [
     ("range_max", math.inf), ("hole_depth", 0.0), ("hole_depth", -0.05),
     ("transform_tolerance", -1.0), ("transform_tolerance", 0.0), ("row_stride", 0),
     ("column_stride", 0), ("inf_epsilon", -1.0), ("tf_buffer_duration", 0.0),
-    ("reference_frame", ""), ("angle_min", math.nan), ("angle_max", math.inf),
+    ("reference_frame", ""), ("reference_frame", "/base_link"), ("angle_min", math.nan), ("angle_max", math.inf),
     ("range_noise_std", 0.002), ("range_noise_std", -0.001), ("range_noise_std", math.inf),
     ("range_noise_std_per_m2", 0.001), ("range_noise_std_per_m2", -0.001), ("range_noise_std_per_m2", math.nan),
 ]

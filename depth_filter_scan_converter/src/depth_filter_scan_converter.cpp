@@ -14,22 +14,13 @@
 
 #include "depth_filter_scan_converter/cloud_view.h"
 #include "depth_filter_scan_converter/header_check.h"
+#include "depth_filter_scan_converter/ros_param.h"
 #include "depth_filter_scan_converter/run_node.h"
 
 namespace depth_filter_scan_converter
 {
 namespace
 {
-// Reads `name` if set; a value of the wrong type is an error, not a silent default.
-template <typename T>
-void readParam(const ros::NodeHandle& nh, const std::string& name, T& value, const char* type)
-{
-  if (!nh.hasParam(name))
-    return;
-  if (!nh.getParam(name, value))
-    throw std::invalid_argument("parameter '" + name + "' must be of type " + type);
-}
-
 const char* failureText(tf2_ros::filter_failure_reasons::FilterFailureReason reason)
 {
   switch (reason)
@@ -72,29 +63,29 @@ std::string transformProblem(const geometry_msgs::TransformStamped& t)
 Parameters loadParameters(const ros::NodeHandle& pnh)
 {
   Parameters p;
-  readParam(pnh, "reference_frame", p.reference_frame, "string");
-  readParam(pnh, "floor_height", p.floor_height, "double");
-  readParam(pnh, "min_height", p.min_height, "double");
-  readParam(pnh, "max_height", p.max_height, "double");
-  readParam(pnh, "angle_min", p.angle_min, "double");
-  readParam(pnh, "angle_max", p.angle_max, "double");
-  readParam(pnh, "angle_increment", p.angle_increment, "double");
-  readParam(pnh, "range_min", p.range_min, "double");
-  readParam(pnh, "range_max", p.range_max, "double");
-  readParam(pnh, "hole_detection", p.hole_detection, "bool");
-  readParam(pnh, "hole_depth", p.hole_depth, "double");
-  readParam(pnh, "range_noise_std", p.range_noise_std, "double");
-  readParam(pnh, "range_noise_std_per_m2", p.range_noise_std_per_m2, "double");
-  readParam(pnh, "transform_tolerance", p.transform_tolerance, "double");
-  readParam(pnh, "row_stride", p.row_stride, "int");
-  readParam(pnh, "column_stride", p.column_stride, "int");
-  readParam(pnh, "use_inf", p.use_inf, "bool");
-  readParam(pnh, "inf_epsilon", p.inf_epsilon, "double");
-  readParam(pnh, "intensity_field", p.intensity_field, "string");
-  readParam(pnh, "publish_filtered_cloud", p.publish_filtered_cloud, "bool");
-  readParam(pnh, "tf_buffer_duration", p.tf_buffer_duration, "double");
-  readParam(pnh, "too_close_at_range_min", p.too_close_at_range_min, "bool");
-  readParam(pnh, "depth_image_rectified", p.depth_image_rectified, "bool");
+  readTypedParam(pnh, "reference_frame", p.reference_frame, "string");
+  readTypedParam(pnh, "floor_height", p.floor_height, "double");
+  readTypedParam(pnh, "min_height", p.min_height, "double");
+  readTypedParam(pnh, "max_height", p.max_height, "double");
+  readTypedParam(pnh, "angle_min", p.angle_min, "double");
+  readTypedParam(pnh, "angle_max", p.angle_max, "double");
+  readTypedParam(pnh, "angle_increment", p.angle_increment, "double");
+  readTypedParam(pnh, "range_min", p.range_min, "double");
+  readTypedParam(pnh, "range_max", p.range_max, "double");
+  readTypedParam(pnh, "hole_detection", p.hole_detection, "bool");
+  readTypedParam(pnh, "hole_depth", p.hole_depth, "double");
+  readTypedParam(pnh, "range_noise_std", p.range_noise_std, "double");
+  readTypedParam(pnh, "range_noise_std_per_m2", p.range_noise_std_per_m2, "double");
+  readTypedParam(pnh, "transform_tolerance", p.transform_tolerance, "double");
+  readTypedParam(pnh, "row_stride", p.row_stride, "int");
+  readTypedParam(pnh, "column_stride", p.column_stride, "int");
+  readTypedParam(pnh, "use_inf", p.use_inf, "bool");
+  readTypedParam(pnh, "inf_epsilon", p.inf_epsilon, "double");
+  readTypedParam(pnh, "intensity_field", p.intensity_field, "string");
+  readTypedParam(pnh, "publish_filtered_cloud", p.publish_filtered_cloud, "bool");
+  readTypedParam(pnh, "tf_buffer_duration", p.tf_buffer_duration, "double");
+  readTypedParam(pnh, "too_close_at_range_min", p.too_close_at_range_min, "bool");
+  readTypedParam(pnh, "depth_image_rectified", p.depth_image_rectified, "bool");
   p.validate();
   return p;
 }
@@ -109,7 +100,7 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
     projector_(params_),
     updater_(nh, private_nh, private_nh.getNamespace())
 {
-  readParam(private_nh_, "queue_size", queue_size_, "int");
+  readTypedParam(private_nh_, "queue_size", queue_size_, "int");
   if (queue_size_ < 1)
     throw std::invalid_argument("parameter 'queue_size' must be >= 1");
 

@@ -17,6 +17,8 @@ void require(bool ok, const std::string& name, const std::string& why)
 void Parameters::validate() const
 {
   require(!reference_frame.empty(), "reference_frame", "must not be empty");
+  require(reference_frame.front() != '/', "reference_frame",
+          "must not start with '/' (tf2 frame ids have no leading slash)");
   require(std::isfinite(floor_height), "floor_height", "must be finite");
   // Heights may be +/-inf ("no limit") but not NaN.
   require(!std::isnan(min_height), "min_height", "must not be NaN");

@@ -235,18 +235,25 @@ def _check_one_turn(params, schema, prefix):
     return []
 
 
+def _check_frame_id(params, schema, key, prefix):
+    """Both nodes: tf2 refuses frame ids with a leading '/' (tf1 style)."""
+    frame = params.get(key, schema[key].default)
+    if isinstance(frame, str) and frame.startswith("/"):
+        return ["%s: must not start with '/' (tf2 frame ids have none)" % _join(prefix, key)]
+    return []
+
+
 def check_converter(params, prefix=""):
     return (_check_block(params, CONVERTER, CONVERTER_PAIRS, prefix)
-            + _check_one_turn(params, CONVERTER, prefix))
+            + _check_one_turn(params, CONVERTER, prefix)
+            + _check_frame_id(params, CONVERTER, "reference_frame", prefix))
 
 
 def _check_merger_output(params, prefix):
     """The merger's cross-field rules beyond min < max (same as OutputParams::validate)."""
     problems = []
     get = lambda k: params.get(k, MERGER[k].default)  # noqa: E731
-    frame = get("output_frame")
-    if isinstance(frame, str) and frame.startswith("/"):
-        problems.append("%s: must not start with '/' (tf2 frame ids have none)" % _join(prefix, "output_frame"))
+    problems += _check_frame_id(params, MERGER, "output_frame", prefix)
     if get("finite_only") is True:
         if get("use_inf") is True:
             problems.append("%s: needs use_inf: false (no return is then range_max + inf_epsilon)"
