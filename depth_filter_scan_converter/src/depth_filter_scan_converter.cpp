@@ -243,10 +243,10 @@ void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message
     const tf2::BufferCore& transforms = tf_buffer_;
     if (transforms.canTransform(params_.reference_frame, tfFrameId(message->header.frame_id), message->header.stamp))
     {
-      convert(*message, Arrival{ message.get(), ros::Time(), info });
+      convert(*message, Arrival{ message, ros::Time(), info });
       return;
     }
-    arrivals_.push_back({ message.get(), ros::Time::now(), info });
+    arrivals_.push_back({ message, ros::Time::now(), info });
     // Messages leave the filter's queue (processed or dropped) in arrival order at the latest
     // after queue_size newer ones: older records are of no use.
     while (arrivals_.size() > static_cast<std::size_t>(2 * queue_size_))
@@ -320,7 +320,7 @@ void DepthFilterScanConverter::dropMalformed(const std::string& reason, const st
 bool DepthFilterScanConverter::takeArrival(const void* message, Arrival& arrival)
 {
   for (auto it = arrivals_.begin(); it != arrivals_.end(); ++it)
-    if (it->message == message)
+    if (it->message.get() == message)
     {
       arrival = *it;
       arrivals_.erase(it);
@@ -437,7 +437,7 @@ void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
                                     " is not finite (a chain of transforms sums to infinity)");
     camera_to_reference = tf2::transformToEigen(transform);
   }
-  catch (const tf2::TransformException& e)
+  catch (const std::exception& e)  // tf2 also throws std::runtime_error on stamps past 32 bits
   {
     ++tf_failures_;
     last_tf_reason_ = e.what();

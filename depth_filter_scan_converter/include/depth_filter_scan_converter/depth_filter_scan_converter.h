@@ -66,7 +66,9 @@ private:
   /// camera_info.
   struct Arrival
   {
-    const void* message = nullptr;
+    // Held, not just its address: a freed message's address can be reused by a newer one,
+    // which would then take the old record (and its camera_info).
+    boost::shared_ptr<const void> message;
     ros::Time time;
     CameraInfo::ConstPtr info;
   };
