@@ -132,6 +132,10 @@ class RangeConverterTest(unittest.TestCase):
                     seen |= values.get("bad messages dropped") == "3"
             rospy.sleep(0.1)
         self.assertTrue(seen, "the diagnostics never counted the 3 bad messages")
+        # One hardware ID per sensor: the node's name (four sonars must not share one).
+        with self.lock:
+            ids = {s.hardware_id for s in self.diagnostics}
+        self.assertEqual(ids, {"/range_converter"}, "the hardware ID is not the node's name")
 
         # Nobody listens any more: the converter lets go of range_in.
         self.sub.unregister()
