@@ -296,9 +296,11 @@ void MultiLaserScanMergerRos::addTransforms(const ros::MessageEvent<const tf2_ms
   const std::string& authority = event.getPublisherName();
   for (const auto& t : event.getMessage()->transforms)
   {
-    // tf2 adds its cache length to the stamps (ros::Time + ros::Duration throws beyond 2^32 s).
+    // tf2 adds its cache length to the stamps (ros::Time + ros::Duration throws beyond 2^32 s), and
+    // one transform far ahead makes it refuse every later one of that frame (TF_OLD_DATA).
     std::string why;
-    if (const char* fault = stampFault(t.header.stamp.sec, t.header.stamp.nsec, now))
+    if (const char* fault = stampFault(t.header.stamp.sec, t.header.stamp.nsec, now,
+                                       is_static ? StampUse::kStaticTransform : StampUse::kMeasurement))
       why = fault;
     else if (!transformIsFinite(t.transform))
       why = "translation or rotation is not finite (tf2 itself refuses only NaN)";
