@@ -367,3 +367,79 @@ def test_zero_and_far_ahead_stamps_are_malformed(ros_env, bad):
         assert "source 'lidar'" in out and 'malformed scan dropped: stamp is zero' in out, out
     else:
         assert "transform 'base_link' -> 'lidar'" in out and 'ahead of the clock' in out, out
+
+
+MOUNT_FEED = r'''
+import sys, time, rospy
+from geometry_msgs.msg import TransformStamped
+from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
+rospy.init_node('mount_feed')
+tf = rospy.Publisher('/tf', TFMessage, queue_size=10, latch=True)
+lidar = rospy.Publisher('/mm/lidar', LaserScan, queue_size=10)
+rear = rospy.Publisher('/mm/rear', LaserScan, queue_size=10)
+merged = []
+rospy.Subscriber('/merged_scan', LaserScan, lambda m: merged.append(m))
+time.sleep(1.5)
+T = rospy.Time.now()
+def mount(stamp, x):  # the lidar slides forward: x 0 at T - 1 s, 1 m from T on
+    t = TransformStamped()
+    t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, 'base_link', 'lidar'
+    t.transform.translation.x, t.transform.rotation.w = x, 1.0
+    return t
+tf.publish(TFMessage(transforms=[mount(T - rospy.Duration(1.0), 0.0), mount(T, 1.0),
+                                 mount(T + rospy.Duration(1.0), 1.0)]))
+time.sleep(0.5)
+def scan(pub, frame, stamp, a0, a1):
+    s = LaserScan()
+    s.header.stamp, s.header.frame_id = stamp, frame
+    s.angle_min, s.angle_max, s.angle_increment = a0, a1, 0.05
+    s.range_max, s.ranges = 10.0, [2.0] * (int(round((a1 - a0) / 0.05)) + 1)
+    pub.publish(s)
+scan(lidar, 'lidar', T, -0.5, 0.5)                           # kept, mount x = 1
+time.sleep(0.3)
+scan(lidar, 'lidar', T - rospy.Duration(0.5), -0.5, 0.5)     # older: discarded (mount x = 0.5)
+time.sleep(0.3)
+scan(rear, 'base_link', T + rospy.Duration(0.01), 2.5, 3.0)  # a merge with the kept lidar scan
+time.sleep(0.5)
+last = merged[-1]
+i = int(round((0.0 - last.angle_min) / last.angle_increment))
+print('outputs', len(merged), 'forward', last.ranges[i])
+# A scan waiting for its transform (none before T - 1 s), superseded by a newer one: counted.
+from diagnostic_msgs.msg import DiagnosticArray
+status = {}
+def on_diagnostics(msg):
+    for st in msg.status:
+        if st.name.endswith('source lidar'):
+            status.update({kv.key: kv.value for kv in st.values})
+rospy.Subscriber('/diagnostics', DiagnosticArray, on_diagnostics)
+scan(lidar, 'lidar', T - rospy.Duration(1.5), -0.5, 0.5)
+time.sleep(0.05)
+scan(lidar, 'lidar', T + rospy.Duration(0.2), -0.5, 0.5)
+time.sleep(2.5)
+print('transform_failures', status.get('transform failures'))
+print('last_drop', status.get('last drop reason', '').replace(' ', '_'))
+sys.stdout.flush()
+'''
+
+
+def test_a_discarded_older_scan_leaves_the_kept_scans_mount(ros_env):
+    # The mount used to be stored when looked up, before accept() discarded the older scan: the
+    # kept scan was then merged with the discarded one's mount (wrong with a moving mount).
+    set_params(ros_env, 'merger_mm', 'odom_topic: ""\nsources: [{name: lidar, topic: mm/lidar, timeout: 2.0}, '
+               '{name: rear, topic: mm/rear, timeout: 2.0}]')
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_mm'],
+                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(1.0)
+    feed = subprocess.run(['/usr/bin/python3', '-c', MOUNT_FEED], env=ros_env, capture_output=True, text=True,
+                          timeout=60)
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=20)
+    words = feed.stdout.split()
+    assert 'forward' in words, feed.stdout + feed.stderr + out
+    assert int(words[words.index('outputs') + 1]) == 2, feed.stdout + out  # the lidar's, then the rear's
+    # The kept lidar scan (mount x = 1 m) sees 2 m ahead: 3 m from base_link (2.5 m with x = 0.5 m).
+    assert abs(float(words[words.index('forward') + 1]) - 3.0) < 0.03, feed.stdout + out
+    # A pending scan superseded by a newer one is counted, with the reason.
+    assert words[words.index('transform_failures') + 1] == '1', feed.stdout + out
+    assert 'before_a_newer_scan_was_merged' in words[words.index('last_drop') + 1], feed.stdout + out
