@@ -112,6 +112,17 @@ def test_merger_publish_rate_verdicts_agree(rate):
     assert checker_ok == core_ok, rate
 
 
+@pytest.mark.parametrize("size", [0, 1, 2, 100])
+def test_merger_odom_queue_size_verdicts_agree(size):
+    checker_ok = not cc.check_merger({"odom_queue_size": size, "sources": [dict(SOURCE)]})
+    try:
+        merger_core.Merger({}, [dict(SOURCE)], odom_queue_size=size)
+        core_ok = True
+    except (ValueError, merger_core.ParameterError):
+        core_ok = False
+    assert checker_ok == core_ok, size
+
+
 @pytest.mark.parametrize("output", MERGER_OUTPUT_COMBINATIONS)
 def test_merger_output_combinations_agree(output):
     checker_ok = not cc.check_merger(dict(output, sources=[dict(SOURCE)]))
