@@ -103,15 +103,20 @@ def test_merger_output_verdicts_agree(name, value):
         name, value, "accepts" if checker_ok else "rejects", "accepts" if core_ok else "rejects")
 
 
-@pytest.mark.parametrize("rate", [0.0, 1e-9, 1e-6, 10.0, -1.0])
-def test_merger_publish_rate_verdicts_agree(rate):
-    checker_ok = not cc.check_merger({"publish_rate": rate, "sources": [dict(SOURCE)]})
+# Parameters the merger core takes beside its output and sources.
+MERGER_NODE_CHANGES = [("publish_rate", r) for r in (0.0, 1e-9, 1e-6, 10.0, -1.0)] + [
+    ("odom_queue_size", n) for n in (0, 1, 2, 100)]
+
+
+@pytest.mark.parametrize("name,value", MERGER_NODE_CHANGES)
+def test_merger_node_verdicts_agree(name, value):
+    checker_ok = not cc.check_merger({name: value, "sources": [dict(SOURCE)]})
     try:
-        merger_core.Merger({}, [dict(SOURCE)], publish_rate=rate)
+        merger_core.Merger({}, [dict(SOURCE)], **{name: value})
         core_ok = True
     except (ValueError, merger_core.ParameterError):
         core_ok = False
-    assert checker_ok == core_ok, rate
+    assert checker_ok == core_ok, "%s = %r" % (name, value)
 
 
 @pytest.mark.parametrize("output", MERGER_OUTPUT_COMBINATIONS)

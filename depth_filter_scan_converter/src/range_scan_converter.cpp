@@ -35,7 +35,7 @@ RangeScanConverter::RangeScanConverter(ros::NodeHandle nh, ros::NodeHandle priva
   if (queue_size_ < 1)
     throw std::invalid_argument("parameter 'queue_size' must be >= 1");
 
-  updater_.setHardwareID("range_scan_converter");
+  updater_.setHardwareID(private_nh_.getNamespace());  // the node's name: one ID per sensor
   updater_.add("Input and processing", this, &RangeScanConverter::diagnose);
   last_report_ = ros::WallTime::now();
   diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { updater_.update(); });

@@ -121,8 +121,10 @@ std::string RangeToScan::convert(const RangeReading& r, ArcScan& scan)
     scan.kind = ReadingKind::Invalid;
   else if (r.range >= r.max_range)
     scan.kind = ReadingKind::NoReturn;
-  else if (r.range < r.min_range)
+  else if (r.range == -std::numeric_limits<double>::infinity())
     scan.kind = ReadingKind::TooClose;
+  else if (r.range < r.min_range)  // 0.0 and the like are driver errors, not "too close" (REP 117)
+    scan.kind = ReadingKind::Invalid;
   else
     scan.kind =
       ++in_range_in_a_row_ >= params_.min_consecutive_readings ? ReadingKind::Obstacle : ReadingKind::Unconfirmed;

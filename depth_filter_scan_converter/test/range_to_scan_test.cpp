@@ -127,10 +127,17 @@ TEST(RangeToScan, Rep117Classes)
   EXPECT_TRUE(all(s, [inf](float v) { return v == inf; }));
   EXPECT_EQ(convert(c, reading(7.0)).kind, dfsc::ReadingKind::NoReturn);
   EXPECT_EQ(convert(c, reading(inf)).kind, dfsc::ReadingKind::NoReturn);
-  s = convert(c, reading(0.1));
+  // Only -Inf is too close; a finite value below min_range (0.0 is a common driver error or
+  // no-echo code) is invalid: an obstacle there would fill the whole cone at min_range.
+  s = convert(c, reading(-inf));
   EXPECT_EQ(s.kind, dfsc::ReadingKind::TooClose);
   EXPECT_TRUE(all(s, [inf](float v) { return v == -inf; }));
-  EXPECT_EQ(convert(c, reading(-inf)).kind, dfsc::ReadingKind::TooClose);
+  for (double below : { 0.1, 0.0, -1.0 })
+  {
+    s = convert(c, reading(below));
+    EXPECT_EQ(s.kind, dfsc::ReadingKind::Invalid) << below;
+    EXPECT_TRUE(all(s, [](float v) { return std::isnan(v); })) << below;
+  }
   s = convert(c, reading(std::nan("")));
   EXPECT_EQ(s.kind, dfsc::ReadingKind::Invalid);
   EXPECT_TRUE(all(s, [](float v) { return std::isnan(v); }));

@@ -131,11 +131,13 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
     py::arg("scan"), "None when the scan is usable, else the fault");
   m.def(
     "stamp_fault",
-    [](std::uint32_t sec, std::uint32_t nsec, std::int64_t now_ns) -> py::object {
-      const char* f = stampFault(sec, nsec, now_ns);
+    [](std::uint32_t sec, std::uint32_t nsec, std::int64_t now_ns, bool static_transform) -> py::object {
+      const char* f =
+        stampFault(sec, nsec, now_ns, static_transform ? StampUse::kStaticTransform : StampUse::kMeasurement);
       return f == nullptr ? py::object(py::none()) : py::object(py::str(f));
     },
-    py::arg("sec"), py::arg("nsec"), py::arg("now_ns"), "None when the stamp is usable, else the fault");
+    py::arg("sec"), py::arg("nsec"), py::arg("now_ns"), py::arg("static_transform") = false,
+    "None when the stamp is usable, else the fault");
   m.def("inside_polygon", &insidePolygon, py::arg("polygon"), py::arg("x"), py::arg("y"));
   m.def(
     "source_in_fov", [](const py::dict& source, double angle) { return sourceFromDict(source).inFieldOfView(angle); },

@@ -258,8 +258,8 @@ void MultiLaserScanMergerRos::clearAll(const std::string& why)
   last_published_ = ros::Time();
 }
 
-bool MultiLaserScanMergerRos::tryTransform(std::size_t i, const std::string& frame, const ros::Time& stamp,
-                                           std::string& error)
+bool MultiLaserScanMergerRos::tryTransform(const std::string& frame, const ros::Time& stamp,
+                                           Eigen::Isometry3d& output_T_sensor, std::string& error)
 {
   // Never blocks: canTransform without a timeout, the scan waits as pending instead. tf2 works
   // with ros::Time and ros::Duration internally: whatever it throws is this scan's failure.
@@ -271,15 +271,13 @@ bool MultiLaserScanMergerRos::tryTransform(std::size_t i, const std::string& fra
         error = "tf2 gave no reason";
       return false;
     }
-    const Eigen::Isometry3d output_T_sensor =
-      tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, stamp));
+    output_T_sensor = tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, stamp));
     // Finite links can still compose to an infinite chain: such a mount would move every return away.
     if (!output_T_sensor.matrix().allFinite())
     {
       error = "the transform is not finite";
       return false;
     }
-    sources_[i].output_T_sensor = output_T_sensor;
   }
   catch (const std::exception& e)
   {
@@ -296,9 +294,11 @@ void MultiLaserScanMergerRos::addTransforms(const ros::MessageEvent<const tf2_ms
   const std::string& authority = event.getPublisherName();
   for (const auto& t : event.getMessage()->transforms)
   {
-    // tf2 adds its cache length to the stamps (ros::Time + ros::Duration throws beyond 2^32 s).
+    // tf2 adds its cache length to the stamps (ros::Time + ros::Duration throws beyond 2^32 s), and
+    // one transform far ahead makes it refuse every later one of that frame (TF_OLD_DATA).
     std::string why;
-    if (const char* fault = stampFault(t.header.stamp.sec, t.header.stamp.nsec, now))
+    if (const char* fault = stampFault(t.header.stamp.sec, t.header.stamp.nsec, now,
+                                       is_static ? StampUse::kStaticTransform : StampUse::kMeasurement))
       why = fault;
     else if (!transformIsFinite(t.transform))
       why = "translation or rotation is not finite (tf2 itself refuses only NaN)";
@@ -381,10 +381,17 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
   if (s.scan && view.stamp < s.scan->header.stamp.toSec() - 1.0)
     clearAll("source '" + sp.name + "' stamps jumped backwards");
   std::string error;
-  if (tryTransform(i, frame, msg->header.stamp, error))
+  Eigen::Isometry3d output_T_sensor;
+  if (tryTransform(frame, msg->header.stamp, output_T_sensor, error))
   {
-    s.pending.reset();
-    accept(i, msg);
+    if (s.pending)
+    {
+      ++s.transform_failures;  // superseded by this newer scan before its transform came
+      drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame +
+                "' before a newer scan was merged: " + s.pending_error);
+      s.pending.reset();
+    }
+    accept(i, msg, output_T_sensor);
   }
   else
   {
@@ -413,10 +420,11 @@ void MultiLaserScanMergerRos::retryPending()
       continue;
     const sensor_msgs::LaserScan::ConstPtr msg = s.pending;
     std::string error;
-    if (tryTransform(i, s.pending_frame, msg->header.stamp, error))
+    Eigen::Isometry3d output_T_sensor;
+    if (tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor, error))
     {
       s.pending.reset();
-      accept(i, msg);
+      accept(i, msg, output_T_sensor);
     }
     else if ((ros::WallTime::now() - s.pending_since).toSec() > kTransformWait)
     {
@@ -432,12 +440,15 @@ void MultiLaserScanMergerRos::retryPending()
   }
 }
 
-void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg)
+void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg,
+                                     const Eigen::Isometry3d& output_T_sensor)
 {
-  // A scan older than the one already kept (a late pending one) is not newer information.
+  // A scan older than the one already kept (a late pending one) is not newer information; its
+  // mount must not replace the kept scan's either (a moving mount would misplace it).
   if (sources_[i].scan && msg->header.stamp < sources_[i].scan->header.stamp)
     return;
   sources_[i].scan = msg;
+  sources_[i].output_T_sensor = output_T_sensor;
   if (params_.publish_rate > 0.0)
     return;
   // publish_rate 0: one output per new scan, at the newest scan's stamp.

@@ -428,14 +428,33 @@ TEST(InputChecks, StampsFarFromTheClockAreMalformed)
 {
   const std::int64_t now = 1796013955LL * 1000000000LL + 944403171LL;
   EXPECT_EQ(stampFault(1796013955u, 944403171u, now), nullptr);
-  EXPECT_EQ(stampFault(0u, 0u, now), nullptr);                   // a bag's stamps years in the past
+  EXPECT_EQ(stampFault(1u, 0u, now), nullptr);                   // a bag's stamps years in the past
   EXPECT_NE(stampFault(4294967295u, 999999999u, now), nullptr);  // the crash of issue 8
   EXPECT_NE(std::string(stampFault(4294967295u, 0u, now)).find("ahead"), std::string::npos);
   EXPECT_NE(stampFault(1796013955u, 1000000000u, now), nullptr);  // nsecs not normalised
   // Sim time before the first /clock (now = 0): every stamp up to 2^31 - 1 s is usable.
   EXPECT_EQ(stampFault(2147483647u, 999999999u, 0), nullptr);
   EXPECT_NE(stampFault(2147483648u, 1u, 0), nullptr);
-  EXPECT_NE(std::string(stampFault(0u, 0u, 4294967295LL * 1000000000LL)).find("behind"), std::string::npos);
+  EXPECT_NE(std::string(stampFault(1u, 0u, 4294967295LL * 1000000000LL)).find("behind"), std::string::npos);
+}
+
+TEST(InputChecks, ZeroStampsAndStampsAheadOfTheClockAreMalformedMeasurements)
+{
+  const std::int64_t now = 1796013955LL * 1000000000LL + 944403171LL;
+  // Zero: unset (tf2 reads it as "latest"; a scan stamped 0 would clear every buffer as a jump back).
+  EXPECT_NE(std::string(stampFault(0u, 0u, now)).find("zero"), std::string::npos);
+  EXPECT_NE(stampFault(0u, 0u, 0), nullptr);
+  EXPECT_EQ(stampFault(0u, 1u, now), nullptr);
+  // Ahead: up to tf2's cache length (10 s), not 1 ns more.
+  EXPECT_EQ(stampFault(1796013965u, 944403171u, now), nullptr);
+  EXPECT_NE(std::string(stampFault(1796013965u, 944403172u, now)).find("ahead"), std::string::npos);
+  EXPECT_NE(stampFault(1796013955u + 1000000000u, 0u, now), nullptr);  // the /tf that poisoned tf2's cache
+  // Behind: any amount up to 2^31 s (bags, a clock that jumped forward).
+  EXPECT_EQ(stampFault(1796013955u - 100000u, 0u, now), nullptr);
+  // Static transforms are timeless: zero and far ahead are fine, a non-normalised stamp is not.
+  EXPECT_EQ(stampFault(0u, 0u, now, StampUse::kStaticTransform), nullptr);
+  EXPECT_EQ(stampFault(4294967295u, 999999999u, now, StampUse::kStaticTransform), nullptr);
+  EXPECT_NE(stampFault(5u, 1000000000u, now, StampUse::kStaticTransform), nullptr);
 }
 
 TEST(InputChecks, FrameIdsForTf2)

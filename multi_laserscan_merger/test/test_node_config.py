@@ -158,7 +158,7 @@ def test_infinite_transform_is_ignored(ros_env):
     # tf2 refuses NaN but stores an infinite translation: a mount that moves every return away.
     alive, out = node_output_after_one_message(
         ros_env, 'merger_tfinf', 'odom_topic: ""\nsources: [{name: a, topic: tfinf/scan}]', '/tf',
-        'tf2_msgs/TFMessage', '{transforms: [{header: {frame_id: base_link}, child_frame_id: lidar, '
+        'tf2_msgs/TFMessage', '{transforms: [{header: {stamp: now, frame_id: base_link}, child_frame_id: lidar, '
         'transform: {translation: {x: .inf}, rotation: {w: 1.0}}}]}')
     assert alive, out
     assert "transform 'base_link' -> 'lidar'" in out and 'not finite' in out, out
@@ -169,8 +169,8 @@ def test_missing_transform_is_reported(ros_env):
     p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_tf'],
                          env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     time.sleep(2.0)
-    pub = subprocess.Popen(['rostopic', 'pub', '-r', '5', '/tf/scan', 'sensor_msgs/LaserScan',
-                            '{header: {frame_id: nowhere}, angle_min: 0.0, angle_max: 1.0, angle_increment: 0.1, '
+    pub = subprocess.Popen(['rostopic', 'pub', '-s', '-r', '5', '/tf/scan', 'sensor_msgs/LaserScan',
+                            '{header: {stamp: now, frame_id: nowhere}, angle_min: 0.0, angle_max: 1.0, angle_increment: 0.1, '
                             'range_max: 10.0, ranges: [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]}'],
                            env=ros_env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     time.sleep(2.0)
@@ -298,3 +298,148 @@ def test_time_jump_and_odometry_stop(ros_env):
     # Merged scans come again after the jump, on the new timeline.
     assert 'after_jump_outputs' in feed.stdout, feed.stdout + feed.stderr
     assert int(feed.stdout.split('after_jump_outputs')[1].split()[0]) > 5, feed.stdout
+
+
+STAMP_FEED = r'''
+import sys, time, rospy
+from geometry_msgs.msg import TransformStamped
+from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
+rospy.init_node('stamp_feed')
+tf = rospy.Publisher('/tf', TFMessage, queue_size=10)
+scan = rospy.Publisher('/s/scan', LaserScan, queue_size=10)
+merged = []
+rospy.Subscriber('/merged_scan', LaserScan, lambda m: merged.append((time.time(), m.header.stamp)))
+time.sleep(1.5)
+bad = sys.argv[1]
+def mount(stamp):
+    t = TransformStamped()
+    t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, 'base_link', 'lidar'
+    t.transform.translation.x, t.transform.rotation.w = 0.2, 1.0
+    tf.publish(TFMessage(transforms=[t]))
+def lidar(stamp):
+    s = LaserScan()
+    s.header.stamp, s.header.frame_id = stamp, 'lidar'
+    s.angle_min, s.angle_max, s.angle_increment = -1.0, 1.0, 0.1
+    s.range_max, s.ranges = 10.0, [2.0] * 21
+    scan.publish(s)
+for i in range(40):
+    now = rospy.Time.now()
+    if i == 15:
+        mark = time.time()
+        if bad == 'scan':
+            lidar(rospy.Time(0))
+        else:
+            mount(now + rospy.Duration(1e9))
+        time.sleep(0.05)
+    mount(now)
+    time.sleep(0.02)
+    lidar(now)
+    time.sleep(0.08)
+time.sleep(0.5)
+print('zero_stamped', sum(1 for _, s in merged if s.is_zero()))
+print('after', sum(1 for t, _ in merged if t > mark + 0.5))
+sys.stdout.flush()
+'''
+
+
+@pytest.mark.parametrize('bad', ['scan', 'tf'])
+def test_zero_and_far_ahead_stamps_are_malformed(ros_env, bad):
+    # A scan stamped 0 used to clear every buffer (a "jump back") and give a merged scan stamped 0;
+    # a /tf transform stamped far ahead used to poison tf2's cache: every later, valid transform
+    # of that frame was refused as too old and the source disappeared without a word.
+    name = 'merger_stamp_' + bad
+    set_params(ros_env, name, 'odom_topic: ""\nsources: [{name: lidar, topic: s/scan, timeout: 0.5}]')
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name],
+                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(1.0)
+    feed = subprocess.run(['/usr/bin/python3', '-c', STAMP_FEED, bad], env=ros_env, capture_output=True, text=True,
+                          timeout=60)
+    alive = p.poll() is None
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=20)
+    assert alive, out
+    counts = dict(line.split() for line in feed.stdout.splitlines() if line.startswith(('zero_stamped', 'after')))
+    assert counts.get('zero_stamped') == '0', feed.stdout + feed.stderr + out
+    assert int(counts.get('after', 0)) >= 10, feed.stdout + feed.stderr + out  # the source keeps merging
+    assert 'buffers cleared' not in out, out
+    if bad == 'scan':
+        assert "source 'lidar'" in out and 'malformed scan dropped: stamp is zero' in out, out
+    else:
+        assert "transform 'base_link' -> 'lidar'" in out and 'ahead of the clock' in out, out
+
+
+MOUNT_FEED = r'''
+import sys, time, rospy
+from geometry_msgs.msg import TransformStamped
+from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
+rospy.init_node('mount_feed')
+tf = rospy.Publisher('/tf', TFMessage, queue_size=10, latch=True)
+lidar = rospy.Publisher('/mm/lidar', LaserScan, queue_size=10)
+rear = rospy.Publisher('/mm/rear', LaserScan, queue_size=10)
+merged = []
+rospy.Subscriber('/merged_scan', LaserScan, lambda m: merged.append(m))
+time.sleep(1.5)
+T = rospy.Time.now()
+def mount(stamp, x):  # the lidar slides forward: x 0 at T - 1 s, 1 m from T on
+    t = TransformStamped()
+    t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, 'base_link', 'lidar'
+    t.transform.translation.x, t.transform.rotation.w = x, 1.0
+    return t
+tf.publish(TFMessage(transforms=[mount(T - rospy.Duration(1.0), 0.0), mount(T, 1.0),
+                                 mount(T + rospy.Duration(1.0), 1.0)]))
+time.sleep(0.5)
+def scan(pub, frame, stamp, a0, a1):
+    s = LaserScan()
+    s.header.stamp, s.header.frame_id = stamp, frame
+    s.angle_min, s.angle_max, s.angle_increment = a0, a1, 0.05
+    s.range_max, s.ranges = 10.0, [2.0] * (int(round((a1 - a0) / 0.05)) + 1)
+    pub.publish(s)
+scan(lidar, 'lidar', T, -0.5, 0.5)                           # kept, mount x = 1
+time.sleep(0.3)
+scan(lidar, 'lidar', T - rospy.Duration(0.5), -0.5, 0.5)     # older: discarded (mount x = 0.5)
+time.sleep(0.3)
+scan(rear, 'base_link', T + rospy.Duration(0.01), 2.5, 3.0)  # a merge with the kept lidar scan
+time.sleep(0.5)
+last = merged[-1]
+i = int(round((0.0 - last.angle_min) / last.angle_increment))
+print('outputs', len(merged), 'forward', last.ranges[i])
+# A scan waiting for its transform (none before T - 1 s), superseded by a newer one: counted.
+from diagnostic_msgs.msg import DiagnosticArray
+status = {}
+def on_diagnostics(msg):
+    for st in msg.status:
+        if st.name.endswith('source lidar'):
+            status.update({kv.key: kv.value for kv in st.values})
+rospy.Subscriber('/diagnostics', DiagnosticArray, on_diagnostics)
+scan(lidar, 'lidar', T - rospy.Duration(1.5), -0.5, 0.5)
+time.sleep(0.05)
+scan(lidar, 'lidar', T + rospy.Duration(0.2), -0.5, 0.5)
+time.sleep(2.5)
+print('transform_failures', status.get('transform failures'))
+print('last_drop', status.get('last drop reason', '').replace(' ', '_'))
+sys.stdout.flush()
+'''
+
+
+def test_a_discarded_older_scan_leaves_the_kept_scans_mount(ros_env):
+    # The mount used to be stored when looked up, before accept() discarded the older scan: the
+    # kept scan was then merged with the discarded one's mount (wrong with a moving mount).
+    set_params(ros_env, 'merger_mm', 'odom_topic: ""\nsources: [{name: lidar, topic: mm/lidar, timeout: 2.0}, '
+               '{name: rear, topic: mm/rear, timeout: 2.0}]')
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_mm'],
+                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(1.0)
+    feed = subprocess.run(['/usr/bin/python3', '-c', MOUNT_FEED], env=ros_env, capture_output=True, text=True,
+                          timeout=60)
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=20)
+    words = feed.stdout.split()
+    assert 'forward' in words, feed.stdout + feed.stderr + out
+    assert int(words[words.index('outputs') + 1]) == 2, feed.stdout + out  # the lidar's, then the rear's
+    # The kept lidar scan (mount x = 1 m) sees 2 m ahead: 3 m from base_link (2.5 m with x = 0.5 m).
+    assert abs(float(words[words.index('forward') + 1]) - 3.0) < 0.03, feed.stdout + out
+    # A pending scan superseded by a newer one is counted, with the reason.
+    assert words[words.index('transform_failures') + 1] == '1', feed.stdout + out
+    assert 'before_a_newer_scan_was_merged' in words[words.index('last_drop') + 1], feed.stdout + out

@@ -210,7 +210,7 @@ int run(const Options& o)
         {
           tf.setTransform(t, "bag", is_static);
         }
-        catch (const tf2::TransformException&)
+        catch (const std::exception&)  // tf2's own, and ros::Time's range errors near 2^32 s
         {
           ++malformed_tf;
         }
@@ -243,6 +243,11 @@ int run(const Options& o)
   if (!o.index_file.empty())
   {
     index.open(o.index_file);
+    if (!index)
+    {
+      std::cerr << "bag_to_rawlog: cannot write " << o.index_file << "\n";
+      return 1;
+    }
     index << "# entry stamp odom_x odom_y odom_yaw (odometry interpolated at the scan's stamp)\n";
     index.precision(9);
   }
@@ -279,7 +284,7 @@ int run(const Options& o)
       const auto& p = t.transform.translation;
       mount = mrpt::poses::CPose3D(mrpt::math::CQuaternionDouble(q.w, q.x, q.y, q.z), p.x, p.y, p.z);
     }
-    catch (const tf2::TransformException&)
+    catch (const std::exception&)  // tf2's own, and ros::Time's range errors near 2^32 s
     {
       ++skipped["no transform '" + scan->header.frame_id + "' -> '" + o.base_frame + "'"];
       continue;
@@ -309,7 +314,8 @@ int run(const Options& o)
   }
   if (malformed_tf > 0)
   {
-    std::cerr << "bag_to_rawlog: " << malformed_tf << " malformed transform(s) ignored\n";
+    std::cerr << "bag_to_rawlog: warning: " << malformed_tf
+              << " malformed transform(s) ignored (refused by tf2: e.g. a stamp near 2^32 s)\n";
   }
   return written > 0 ? 0 : 1;
 }

@@ -34,19 +34,28 @@ int main(int argc, char** argv)
     "sensor_z sensor_yaw first_angle last_angle\n");
   std::size_t entry = 0;
   double dx = NAN, dy = NAN, dyaw = NAN;
+  bool action_without_frame = false;
   while (true)
   {
     mrpt::serialization::CSerializable::Ptr object;
+    const auto object_start = file.getPosition();  // in the uncompressed stream
     try
     {
       archive >> object;
     }
-    catch (const std::exception&)
+    catch (const std::exception& e)
     {
-      break;  // end of file (MRPT signals it with an exception)
+      // MRPT signals the end of file with an exception too. It is the end only where an object
+      // ends: a cut inside an object (or a pair cut after its action) or any other read error
+      // is a broken rawlog, and the exit code must say so.
+      if (file.getPosition() == object_start)
+        break;
+      std::cerr << "rawlog_dump: " << argv[1] << ": read error after " << entry << " entries: " << e.what() << "\n";
+      return 1;
     }
     if (auto actions = std::dynamic_pointer_cast<mrpt::obs::CActionCollection>(object))
     {
+      action_without_frame = true;
       const auto movement = actions->getBestMovementEstimation();
       const auto mean = movement ? movement->poseChange->getMeanVal() : mrpt::poses::CPose2D(NAN, NAN, NAN);
       dx = mean.x();
@@ -55,6 +64,7 @@ int main(int argc, char** argv)
     }
     else if (auto frame = std::dynamic_pointer_cast<mrpt::obs::CSensoryFrame>(object))
     {
+      action_without_frame = false;
       const auto scan = frame->getObservationByClass<mrpt::obs::CObservation2DRangeScan>();
       if (!scan)
       {
@@ -74,6 +84,11 @@ int main(int argc, char** argv)
                   n ? scan->getScanAngle(n - 1) : NAN);
       ++entry;
     }
+  }
+  if (action_without_frame)
+  {
+    std::cerr << "rawlog_dump: " << argv[1] << ": truncated: the last action has no observation\n";
+    return 1;
   }
   return 0;
 }

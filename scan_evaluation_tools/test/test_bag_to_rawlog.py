@@ -170,3 +170,45 @@ def test_bad_usage_and_unusable_bags(converted, tmp_path):
     missing = subprocess.run([exe, str(tmp_path / "missing.bag"), out, "--scan-topic", "/scan"],
                              capture_output=True, text=True)
     assert missing.returncode == 1 and "missing.bag" in missing.stderr
+
+
+def test_a_tf_stamp_near_2_to_the_32_is_skipped_with_a_warning(converted, tmp_path):
+    # tf2 throws std::runtime_error (ros::Time out of range), not a TransformException, on such a
+    # stamp: the conversion used to stop with exit 1.
+    import genpy
+    from geometry_msgs.msg import TransformStamped
+    from tf2_msgs.msg import TFMessage
+    bag = str(tmp_path / "far_tf.bag")
+    with rosbag.Bag(converted["bag"]) as src, rosbag.Bag(bag, "w") as dst:
+        for topic, msg, t in src.read_messages(raw=True):
+            dst.write(topic, msg, t, raw=True)
+        far = TransformStamped()
+        far.header.stamp, far.header.frame_id, far.child_frame_id = genpy.Time(4294967290, 0), "base_link", "junk"
+        far.transform.rotation.w = 1.0
+        dst.write("/tf", TFMessage([far]), bagio.stamp(T0 + 1.0))
+    rawlog = str(tmp_path / "far_tf.rawlog")
+    run = subprocess.run([tool("bag_to_rawlog"), bag, rawlog, "--scan-topic", "/scan"], capture_output=True,
+                         text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    assert "warning: 1 malformed transform(s) ignored" in run.stderr, run.stderr
+    dump = subprocess.run([tool("rawlog_dump"), rawlog], capture_output=True, text=True, timeout=60, check=True)
+    assert len(np.loadtxt(dump.stdout.splitlines(), ndmin=2)) == 94
+
+
+def test_an_index_file_that_cannot_be_written_fails(converted, tmp_path):
+    run = subprocess.run([tool("bag_to_rawlog"), converted["bag"], str(tmp_path / "x.rawlog"), "--scan-topic",
+                          "/scan", "--index", str(tmp_path / "no_such_dir" / "x.index")],
+                         capture_output=True, text=True, timeout=60)
+    assert run.returncode == 1 and "cannot write" in run.stderr and "x.index" in run.stderr, run.stderr
+
+
+def test_a_truncated_rawlog_makes_rawlog_dump_fail(converted, tmp_path):
+    with open(str(converted["dir"] / "known.rawlog"), "rb") as f:
+        data = f.read()
+    for cut in (len(data) // 2, len(data) - 100):
+        broken = str(tmp_path / ("cut_%d.rawlog" % cut))
+        with open(broken, "wb") as f:
+            f.write(data[:cut])
+        dump = subprocess.run([tool("rawlog_dump"), broken], capture_output=True, text=True, timeout=60)
+        assert dump.returncode == 1, (cut, dump.stderr)
+        assert "rawlog_dump: " + broken in dump.stderr, dump.stderr

@@ -85,7 +85,7 @@ MERGER = {
     "footprint": Key("polygon", [], "m", doc="robot outline in output_frame: returns inside are dropped"),
     "odom_topic": Key("str", "odom", doc="empty disables motion compensation"),
     # the merger reads it as a number that must be whole (100 and 100.0 both work)
-    "odom_queue_size": Key("whole", 100, lo=1),
+    "odom_queue_size": Key("whole", 100, lo=2, doc="odometry poses kept (interpolation needs two)"),
     "publish_rate": Key("float", 0.0, "Hz", lo=0.0),
     "sources": None,  # checked by check_sources
 }

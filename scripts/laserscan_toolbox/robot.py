@@ -84,7 +84,7 @@ class Sonar:
     rate: float = 10.0           # Hz
     phase: float = 0.0           # s, first ping (in turn; off the 50 Hz odometry grid, see paper_robot)
     field_of_view: float = 0.6   # rad, full cone angle
-    min_range: float = 0.3       # m; closer echoes read below it (too close)
+    min_range: float = 0.3       # m; closer echoes read -inf (too close, REP 117)
     max_range: float = 5.0       # m; no echo reads exactly max_range
     rays: int = 25               # rays cast across the cone
     noise_sigma: float = 0.01    # m

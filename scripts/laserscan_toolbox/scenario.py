@@ -210,7 +210,8 @@ class Scenario:
 
     def sonar_range(self, sonar, rel, rng):
         """One noisy ultrasonic reading (m) at relative time rel: the closest surface in
-        the cone (glass included), ``max_range`` when nothing echoes within it."""
+        the cone (glass included), ``max_range`` when nothing echoes within it, -inf when
+        it is closer than ``min_range``."""
         x, y, yaw = self.true_pose(rel + self.start_time)
         c, s = math.cos(yaw), math.sin(yaw)
         sx, sy, sz = sonar.xyz
@@ -221,6 +222,8 @@ class Scenario:
         r = float(self.world.cast(o, d, rel, see_glass=True).min())
         if not r < sonar.max_range:
             return float(sonar.max_range)
+        if r < sonar.min_range:
+            return -math.inf  # REP 117 driver: too close (a finite value there is an error code)
         return r + float(rng.normal(0.0, sonar.noise_sigma))
 
     def depth_image(self, cam, rel, rng, rays=None):

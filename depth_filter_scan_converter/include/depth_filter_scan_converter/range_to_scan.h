@@ -2,7 +2,8 @@
 //
 // A reading inside [min_range, max_range) is an obstacle somewhere across the sensor's cone at
 // that distance: every beam of the arc reads it. At or beyond max_range it is no return (+Inf),
-// below min_range too close (-Inf), NaN invalid (REP 117). The scan lies in the sensor's frame,
+// -Inf too close, NaN or a finite value below min_range invalid (NaN; REP 117: a 0.0 is a
+// driver's error or no-echo code, not an obstacle). The scan lies in the sensor's frame,
 // its beams spread symmetrically around the frame's x axis (the cone's axis, as sensor_msgs/Range
 // defines it).
 #pragma once
@@ -44,8 +45,8 @@ enum class ReadingKind
   Obstacle,     ///< in range (and confirmed): the arc holds the range
   Unconfirmed,  ///< in range, but fewer than min_consecutive_readings in a row: NaN (no proof either way)
   NoReturn,     ///< at or beyond max_range (or +Inf): +Inf, never an obstacle
-  TooClose,     ///< below min_range (or -Inf): -Inf
-  Invalid,      ///< NaN: NaN
+  TooClose,     ///< -Inf (the driver says: closer than min_range): -Inf
+  Invalid,      ///< NaN, or finite below min_range: NaN
 };
 
 constexpr std::size_t kReadingKinds = 5;

@@ -4,7 +4,8 @@
 An ultrasonic sensor publishes sensor_msgs/Range on range_in; the converter (angle_increment
 0.01, min_consecutive_readings 2) must answer each reading with a LaserScan arc in the sensor's
 frame: the first in-range reading unconfirmed (NaN), the second an obstacle across the cone,
-max_range a no return (+Inf), below min_range too close (-Inf). Bad messages (NaN field of view,
+max_range a no return (+Inf), -Inf too close (-Inf), a finite value below min_range (0.0)
+invalid (NaN). Bad messages (NaN field of view,
 min_range > max_range, empty frame) give no scan and a diagnostic; a reading with an extreme stamp
 is converted like any other; after all of them the next good readings still give their scans.
 The subscription to range_in is lazy.
@@ -99,8 +100,11 @@ class RangeConverterTest(unittest.TestCase):
         scan = self.send(reading(5.0, t))
         self.assertTrue(all(r == math.inf for r in scan.ranges), "max_range is no return")
         t += step
-        scan = self.send(reading(0.1, t))
-        self.assertTrue(all(r == -math.inf for r in scan.ranges), "below min_range is too close")
+        scan = self.send(reading(-math.inf, t))
+        self.assertTrue(all(r == -math.inf for r in scan.ranges), "-Inf is too close")
+        t += step
+        scan = self.send(reading(0.0, t))
+        self.assertTrue(all(math.isnan(r) for r in scan.ranges), "0.0 (below min_range) is invalid")
 
         # Bad messages: no scan, the node stays alive.
         for bad in (reading(1.0, t + step, fov=float("nan")), reading(1.0, t + step, min_range=6.0),
@@ -128,6 +132,10 @@ class RangeConverterTest(unittest.TestCase):
                     seen |= values.get("bad messages dropped") == "3"
             rospy.sleep(0.1)
         self.assertTrue(seen, "the diagnostics never counted the 3 bad messages")
+        # One hardware ID per sensor: the node's name (four sonars must not share one).
+        with self.lock:
+            ids = {s.hardware_id for s in self.diagnostics}
+        self.assertEqual(ids, {"/range_converter"}, "the hardware ID is not the node's name")
 
         # Nobody listens any more: the converter lets go of range_in.
         self.sub.unregister()

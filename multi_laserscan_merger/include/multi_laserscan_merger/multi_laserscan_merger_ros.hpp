@@ -70,8 +70,12 @@ private:
   // All below run with mutex_ held.
   void checkTimeJump();
   void clearAll(const std::string& why);
-  bool tryTransform(std::size_t source, const std::string& frame, const ros::Time& stamp, std::string& error);
-  void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg);
+  /// output_T_sensor at stamp; false (with the reason in error) when tf2 has none or it is not finite.
+  bool tryTransform(const std::string& frame, const ros::Time& stamp, Eigen::Isometry3d& output_T_sensor,
+                    std::string& error);
+  /// Keeps msg with the mount it was transformed with, unless an older scan than the one kept.
+  void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg,
+              const Eigen::Isometry3d& output_T_sensor);
   void drop(std::size_t source, std::string why);
   void retryPending();
   /// t_out is the stamp of a scan or an odometry message: published bit for bit.
