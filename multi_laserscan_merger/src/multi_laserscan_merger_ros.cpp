@@ -451,11 +451,16 @@ void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan
   sources_[i].output_T_sensor = output_T_sensor;
   if (params_.publish_rate > 0.0)
     return;
-  // publish_rate 0: one output per new scan, at the newest scan's stamp.
+  // publish_rate 0: one output per new scan, at the newest scan's stamp. A scan older than
+  // that stamp (a sensor a little behind another) would give a second output with the stamp
+  // already published, which consumers that key on stamps take for the same scan: it is held
+  // and goes into the next output instead.
   ros::Time t_out = msg->header.stamp;
   for (const auto& s : sources_)
     if (s.scan)
       t_out = std::max(t_out, s.scan->header.stamp);
+  if (!last_published_.isZero() && t_out <= last_published_)
+    return;
   mergeAndPublish(t_out);
 }
 

@@ -237,6 +237,47 @@ def test_unusable_odometry_is_named(ros_env):
     assert 'no odometry yet' not in out, out
 
 
+LATE_FEED = r'''
+import sys, time, rospy
+from sensor_msgs.msg import LaserScan
+rospy.init_node('late_feed')
+pubs = {n: rospy.Publisher('/late/%s' % n, LaserScan, queue_size=10) for n in ('front', 'rear')}
+stamps = []
+rospy.Subscriber('/merged_scan', LaserScan, lambda m: stamps.append(m.header.stamp.to_nsec()))
+time.sleep(1.5)
+def send(name, t):
+    s = LaserScan()
+    s.header.stamp, s.header.frame_id = t, 'base_link'
+    s.angle_min, s.angle_max, s.angle_increment = -1.0, 1.0, 0.1
+    s.range_max, s.ranges = 10.0, [2.0] * 21
+    pubs[name].publish(s)
+    time.sleep(0.2)
+t0 = rospy.Time.now()
+for k in range(5):  # the rear scan arrives after the front one but is 0.4 ms older
+    t = t0 + rospy.Duration(0.1 * k)
+    send('front', t)
+    send('rear', t - rospy.Duration(0.0004))
+time.sleep(0.5)
+print(len(stamps), len(set(stamps)), int(all(a < b for a, b in zip(stamps, stamps[1:]))))
+sys.stdout.flush()
+'''
+
+
+def test_a_late_older_scan_gives_no_second_output_with_the_same_stamp(ros_env):
+    set_params(ros_env, 'merger_late', 'odom_topic: ""\nsources: [{name: front, topic: late/front}, '
+               '{name: rear, topic: late/rear}]')
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_late'],
+                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(1.0)
+    feed = subprocess.run(['/usr/bin/python3', '-c', LATE_FEED], env=ros_env, capture_output=True, text=True,
+                          timeout=60)
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=20)
+    count, distinct, increasing = (int(v) for v in feed.stdout.split()[-3:])
+    # one output per front scan (the late rear scans go into the next one), stamps all different
+    assert count == 5 and distinct == 5 and increasing == 1, feed.stdout + feed.stderr + out
+
+
 FEED = r'''
 import sys, rospy
 from rosgraph_msgs.msg import Clock
