@@ -48,6 +48,7 @@ SourceParams sourceFromDict(const py::dict& d)
   get(d, "deskew", s.deskew);
   get(d, "too_close_is_obstacle", s.too_close_is_obstacle);
   get(d, "footprint_filter", s.footprint_filter);
+  get(d, "drop_explained_within", s.drop_explained_within);
   return s;
 }
 

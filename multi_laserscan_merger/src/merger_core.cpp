@@ -245,10 +245,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     return robot_is_output ? output_T_sensor : Eigen::Isometry3d(robot_T_output * output_T_sensor);
   };
 
-  for (std::size_t s = 0; s < n_src; ++s)
-  {
-    if (status[s] != SourceStatus::kUsed)
-      continue;
+  auto add_source = [&](std::size_t s) {
     const SourceInput& in = inputs[s];
     const ScanView& scan = in.scan;
     updateCache(s, scan);
@@ -280,6 +277,44 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
         compensate ? sensor_at(scan.stamp, mount(in.output_T_sensor)) : planarPart(in.output_T_sensor);
       addScan<false>(s, in, group_transforms_.data(), n, with_intensity);
     }
+  };
+  auto explains_others = [&](std::size_t s) { return params_.sources[s].drop_explained_within > 0.0; };
+  bool any_second_pass = false;
+  for (std::size_t s = 0; s < n_src; ++s)
+  {
+    if (status[s] != SourceStatus::kUsed)
+      continue;
+    if (explains_others(s))
+      any_second_pass = true;
+    else
+      add_source(s);
+  }
+  if (any_second_pass)
+  {
+    // Each such source is binned on its own (bins_ swapped with own_bins_, all +Inf), judged
+    // against the first-pass bins (never against another second-pass source, so the order of
+    // sources does not matter), then fused by the first pass's rule or dropped whole. Its
+    // intensities go along exactly as in the first pass (own_ibins_ swapped with ibins_).
+    first_pass_bins_.assign(bins_.begin(), bins_.begin() + static_cast<std::ptrdiff_t>(n_out_));
+    own_bins_.resize(n_out_ + kScratch, kFInf);
+    if (any_intensity)
+      own_ibins_.resize(n_out_ + kScratch, 0.0f);
+    for (std::size_t s = 0; s < n_src; ++s)
+    {
+      if (status[s] != SourceStatus::kUsed || !explains_others(s))
+        continue;
+      const bool with_intensity = any_intensity && inputs[s].scan.n_intensities == inputs[s].scan.n_ranges;
+      bins_.swap(own_bins_);
+      if (with_intensity)
+        ibins_.swap(own_ibins_);
+      add_source(s);
+      bins_.swap(own_bins_);
+      if (with_intensity)
+        ibins_.swap(own_ibins_);
+      if (!explainedByFirstPass(s))
+        fuseOwnBins(with_intensity);
+      std::fill(own_bins_.begin(), own_bins_.begin() + static_cast<std::ptrdiff_t>(n_out_), kFInf);
+    }
   }
 
   // Bins past one full turn are the same directions as the first ones (e.g. -pi and pi).
@@ -310,6 +345,37 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     out.intensities.clear();
   out.ranges.resize(n_out_);
   applyOutputLimits(r.data(), out.ranges.data(), n_out_, rmin, rmax, no_return, invalid, too_close);
+}
+
+// A real range in a bin: finite and not kInvalidMark (planar ranges, too-close kept as range_min).
+static bool isReturn(float bin)
+{
+  return bin < kInvalidMark;
+}
+
+bool MergerCore::explainedByFirstPass(std::size_t source) const
+{
+  const float tol = static_cast<float>(params_.sources[source].drop_explained_within);
+  for (std::size_t k = 0; k < n_out_; ++k)
+    if (isReturn(own_bins_[k]) && isReturn(first_pass_bins_[k]) && std::abs(first_pass_bins_[k] - own_bins_[k]) <= tol)
+      return true;
+  return false;
+}
+
+void MergerCore::fuseOwnBins(bool with_intensity)
+{
+  // The rule of addScan's pass 2: the minimum (kInvalidMark loses against any real range and
+  // replaces only +Inf); with intensities, a strictly closer range takes its intensity along.
+  for (std::size_t k = 0; k < n_out_; ++k)
+  {
+    const float rr = own_bins_[k];
+    if (rr < bins_[k])
+    {
+      bins_[k] = rr;
+      if (with_intensity)
+        ibins_[k] = own_ibins_[k];
+    }
+  }
 }
 
 template <bool kInterpolate>

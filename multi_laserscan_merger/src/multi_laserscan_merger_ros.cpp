@@ -68,7 +68,8 @@ SourceParams readSource(XmlRpc::XmlRpcValue& item, const std::string& prefix)
                                                "range_max",
                                                "deskew",
                                                "too_close_is_obstacle",
-                                               "footprint_filter" };
+                                               "footprint_filter",
+                                               "drop_explained_within" };
   for (auto& kv : item)
     if (known.count(kv.first) == 0)
       throw ParameterError(prefix + "." + kv.first, "unknown key (a typo?)");
@@ -93,6 +94,7 @@ SourceParams readSource(XmlRpc::XmlRpcValue& item, const std::string& prefix)
   number("angle_max", s.angle_max);
   number("range_min", s.range_min);
   number("range_max", s.range_max);
+  number("drop_explained_within", s.drop_explained_within);
   auto flag = [&](const char* key, bool& value) {
     if (!item.hasMember(key))
       return;
@@ -174,7 +176,7 @@ MergerParams loadParams(const ros::NodeHandle& pnh)
   if (!pnh.getParam("sources", list))
     throw ParameterError("sources",
                          "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
-                         "range_max, deskew, too_close_is_obstacle, footprint_filter}");
+                         "range_max, deskew, too_close_is_obstacle, footprint_filter, drop_explained_within}");
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw ParameterError("sources", "must be a list of dictionaries");
   for (int i = 0; i < list.size(); ++i)

@@ -69,6 +69,9 @@ void SourceParams::validate(const std::string& prefix) const
     throw ParameterError(p + "range_min", "must be >= 0 (source '" + name + "')");
   if (std::isnan(range_max) || range_min >= range_max)
     throw ParameterError(p + "range_min", "must be smaller than range_max (source '" + name + "')");
+  if (!std::isfinite(drop_explained_within) || drop_explained_within < 0.0)
+    throw ParameterError(p + "drop_explained_within",
+                         "must be a finite value >= 0 m (0 = off) (source '" + name + "')");
 }
 
 bool SourceParams::inFieldOfView(double angle) const

@@ -98,10 +98,14 @@ def reference_merge(out, sources, scans, t_out, odom=None, output_T_robot=None):
     nan_mark = np.zeros(n, bool)
     points = []
     p_out_inv = np.linalg.inv(odom.pose(t_out)) if odom is not None else None
+    # drop_explained_within > 0: after all other sources, judged against them only.
+    deferred = []
     for src, scan in zip(sources, scans):
         if scan is None or t_out - scan['stamp'] > src.get('timeout', 1.0):
             points.append((np.zeros(0, int), np.zeros(0)))
             continue
+        tolerance = src.get('drop_explained_within', 0.0)
+        own_best, own_nan = (np.full(n, np.inf), np.zeros(n, bool)) if tolerance > 0 else (best, nan_mark)
         r = np.asarray(scan['ranges'], np.float64)
         i = np.arange(len(r))
         a = scan['angle_min'] + i * scan['angle_increment']
@@ -127,17 +131,29 @@ def reference_merge(out, sources, scans, t_out, odom=None, output_T_robot=None):
                 p = t @ np.array([r[b] * math.cos(a[b]), r[b] * math.sin(a[b]), 0.0, 1.0])
                 k = int(bin_of(out, math.atan2(p[1], p[0])))
                 if k >= 0 and footprint and inside(footprint, p[0], p[1]):
-                    nan_mark[k] = True  # on the robot: its direction is invalid
+                    own_nan[k] = True  # on the robot: its direction is invalid
                 elif k >= 0:
                     ks.append(k)
                     rs.append(math.hypot(p[0], p[1]))
-                    best[k] = min(best[k], rs[-1])
+                    own_best[k] = min(own_best[k], rs[-1])
             else:
                 d = t[:3, :3] @ np.array([math.cos(a[b]), math.sin(a[b]), 0.0])
                 k = int(bin_of(out, math.atan2(d[1], d[0])))
                 if k >= 0:
-                    nan_mark[k] = True
+                    own_nan[k] = True
+        if tolerance > 0:
+            deferred.append((tolerance, own_best, own_nan, len(points)))
         points.append((np.array(ks, int), np.array(rs)))
+    first_pass = best.copy()
+    for tolerance, own_best, own_nan, i in deferred:
+        with np.errstate(invalid='ignore'):
+            explained = np.any(np.isfinite(own_best) & np.isfinite(first_pass) &
+                               (np.abs(own_best - first_pass) <= tolerance))
+        if explained:  # the whole scan is left out
+            points[i] = (np.zeros(0, int), np.zeros(0))
+        else:
+            best = np.minimum(best, own_best)
+            nan_mark |= own_nan
     if n_circle and n > n_circle:
         best[n_circle:] = best[:n - n_circle]
         nan_mark[n_circle:] = nan_mark[:n - n_circle]

@@ -182,6 +182,13 @@ TEST(Parameters, BadConfigsNameTheParameter)
   p.output.frame = "/base_link";
   EXPECT_EQ(param_of(p), "output_frame");
 
+  for (double bad : { -0.1, static_cast<double>(kNaNF), static_cast<double>(kInfF) })
+  {
+    p = oneSource();
+    p.sources[0].drop_explained_within = bad;
+    EXPECT_EQ(param_of(p), "sources[0].drop_explained_within");
+  }
+
   p = oneSource();
   p.publish_rate = 1e-9;  // a period of 1e9 s does not fit a ros::Duration
   EXPECT_EQ(param_of(p), "publish_rate");
@@ -925,6 +932,164 @@ TEST(Fusion, OutputLimitsAndUseInf)
   EXPECT_TRUE(std::isnan(out.ranges[8]));
   EXPECT_NEAR(out.ranges[12], 2.0f, 1e-5);
   EXPECT_TRUE(out.intensities.empty());
+}
+
+// ---------------------------------------------------------------- drop_explained_within
+
+// A sonar arc as the range converter makes it: every beam of the cone at the echo's range.
+struct Arc
+{
+  std::vector<float> ranges = std::vector<float>(31);  // 1 degree apart: a 30-degree cone
+  explicit Arc(float r) { std::fill(ranges.begin(), ranges.end(), r); }
+  ScanView view() const
+  {
+    ScanView v;
+    v.angle_min = -15.0 * kPi / 180.0;
+    v.angle_increment = kPi / 180.0;
+    v.angle_max = v.angle_min + (ranges.size() - 1) * v.angle_increment;
+    v.range_min = 0.02;
+    v.range_max = 5.0;
+    v.ranges = ranges.data();
+    v.n_ranges = ranges.size();
+    return v;
+  }
+};
+
+// A 720-beam lidar (output bins 2k) seeing `far` everywhere and a wall at `wall` within +-5 degrees.
+Scan lidarWithWall(float far, float wall)
+{
+  Scan lidar{ std::vector<float>(720, far), {} };
+  for (int i = 350; i <= 370; ++i)
+    lidar.ranges[i] = wall;
+  return lidar;
+}
+
+// Output bin of sensor beam j (0..30) of an arc facing yaw_deg: 0.25-degree bins, 720 = straight ahead.
+std::size_t arcBin(int j, int yaw_deg)
+{
+  return static_cast<std::size_t>(720 + 4 * (j - 15 + yaw_deg));
+}
+
+MergedScan mergeAll(const std::vector<SourceParams>& sources, const std::vector<SourceInput>& inputs)
+{
+  MergerParams p;
+  p.sources = sources;
+  MergerCore core(p);
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge(inputs, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  for (SourceStatus s : st)
+    EXPECT_EQ(s, SourceStatus::kUsed);
+  return out;
+}
+
+SourceParams arcSource(const std::string& name, double tolerance)
+{
+  SourceParams s = source(name);
+  s.drop_explained_within = tolerance;
+  return s;
+}
+
+// Bin by bin: equal (NaN to NaN), finite values within `tolerance`.
+void expectSameRanges(const std::vector<float>& got, const std::vector<float>& expected, float tolerance = 0.0f)
+{
+  ASSERT_EQ(got.size(), expected.size());
+  for (std::size_t k = 0; k < got.size(); ++k)
+  {
+    if (std::isfinite(expected[k]))
+    {
+      EXPECT_NEAR(got[k], expected[k], tolerance) << "bin " << k;
+    }
+    else if (!(std::isnan(got[k]) && std::isnan(expected[k])))
+    {
+      EXPECT_EQ(got[k], expected[k]) << "bin " << k;
+    }
+  }
+}
+
+TEST(DropExplained, ArcOnAWallTheLidarSeesIsDropped)
+{
+  const Scan lidar = lidarWithWall(kInfF, 2.0f);
+  const MergedScan lidar_only = mergeAll({ source("lidar") }, { input(lidar.view()) });
+  for (float echo : { 2.0f, 2.1f, 1.9f })  // the sonar's own range error, within 0.15 m
+  {
+    const Arc arc(echo);
+    const MergedScan out =
+      mergeAll({ source("lidar"), arcSource("sonar", 0.15) }, { input(lidar.view()), input(arc.view()) });
+    expectSameRanges(out.ranges, lidar_only.ranges);
+  }
+  // Beyond the tolerance the echo is something else: the arc is kept.
+  const Arc arc(1.8f);
+  const MergedScan out =
+    mergeAll({ source("lidar"), arcSource("sonar", 0.15) }, { input(lidar.view()), input(arc.view()) });
+  EXPECT_FLOAT_EQ(out.ranges[arcBin(0, 0)], 1.8f);
+}
+
+TEST(DropExplained, ArcBeforeGlassIsKept)
+{
+  const Scan lidar = lidarWithWall(5.0f, 5.0f);  // through the pane
+  const Arc arc(1.0f);
+  const MergedScan lidar_only = mergeAll({ source("lidar") }, { input(lidar.view()) });
+  const MergedScan out =
+    mergeAll({ arcSource("sonar", 0.15), source("lidar") }, { input(arc.view()), input(lidar.view()) });
+  std::vector<float> expected = lidar_only.ranges;
+  for (int j = 0; j <= 30; ++j)
+    expected[arcBin(j, 0)] = 1.0f;
+  expectSameRanges(out.ranges, expected, 1e-5f);
+}
+
+TEST(DropExplained, ZeroToleranceIsTheUsualFusion)
+{
+  const Scan lidar = lidarWithWall(kInfF, 2.0f);
+  Arc arc(2.0f);
+  arc.ranges[0] = -kInfF;  // too close: an obstacle at range_min, as for any source
+  arc.ranges[1] = kNaNF;   // invalid: replaces only the lidar's no return
+  const MergedScan out =
+    mergeAll({ source("lidar"), arcSource("sonar", 0.0) }, { input(lidar.view()), input(arc.view()) });
+  EXPECT_FLOAT_EQ(out.ranges[arcBin(0, 0)], 0.02f);
+  EXPECT_TRUE(std::isnan(out.ranges[arcBin(1, 0)]));
+  for (int j = 2; j <= 30; ++j)
+    EXPECT_FLOAT_EQ(out.ranges[arcBin(j, 0)], 2.0f) << j;  // the cone's widening included
+  const MergedScan plain = mergeAll({ source("lidar"), source("sonar") }, { input(lidar.view()), input(arc.view()) });
+  expectSameRanges(out.ranges, plain.ranges);
+}
+
+TEST(DropExplained, KeptArcKeepsTooCloseAndInvalidAsTheFirstPass)
+{
+  const Scan lidar = lidarWithWall(5.0f, 5.0f);
+  Arc arc(1.0f);
+  arc.ranges[0] = -kInfF;
+  arc.ranges[1] = kNaNF;
+  const MergedScan out =
+    mergeAll({ source("lidar"), arcSource("sonar", 0.15) }, { input(lidar.view()), input(arc.view()) });
+  const MergedScan plain = mergeAll({ source("lidar"), source("sonar") }, { input(lidar.view()), input(arc.view()) });
+  expectSameRanges(out.ranges, plain.ranges);
+  EXPECT_FLOAT_EQ(out.ranges[arcBin(0, 0)], 0.02f);
+  EXPECT_FLOAT_EQ(out.ranges[arcBin(1, 0)], 5.0f);  // invalid never hides a return
+}
+
+TEST(DropExplained, SeveralArcsAreJudgedAgainstTheOtherSourcesOnly)
+{
+  const Scan lidar = lidarWithWall(5.0f, 2.0f);
+  const Arc wall_arc(2.05f);  // ahead: explained by the lidar's wall, dropped
+  const Arc glass_arc(1.0f);  // to the left: the lidar sees 5 m, kept
+  const Arc near_arc(1.05f);  // 10 degrees further: overlaps glass_arc's cone, must not be judged against it
+  const Eigen::Isometry3d glass = pose(0, 0, 0, 0, 0, 90.0 * kPi / 180.0);
+  const Eigen::Isometry3d at100 = pose(0, 0, 0, 0, 0, 100.0 * kPi / 180.0);
+  const SourceParams l = source("lidar"), w = arcSource("w", 0.15), g = arcSource("g", 0.15), n = arcSource("n", 0.15);
+  const SourceInput li = input(lidar.view()), wi = input(wall_arc.view()), gi = input(glass_arc.view(), glass),
+                    ni = input(near_arc.view(), at100);
+  const MergedScan ref = mergeAll({ l, w, g, n }, { li, wi, gi, ni });
+  expectSameRanges(mergeAll({ n, g, w, l }, { ni, gi, wi, li }).ranges, ref.ranges);
+  expectSameRanges(mergeAll({ g, l, n, w }, { gi, li, ni, wi }).ranges, ref.ranges);
+  const MergedScan lidar_only = mergeAll({ l }, { li });
+  std::vector<float> expected = lidar_only.ranges;
+  for (int j = 0; j <= 30; ++j)
+  {
+    expected[arcBin(j, 100)] = 1.05f;
+    expected[arcBin(j, 90)] = 1.0f;  // closest wins where the two cones overlap
+  }
+  expectSameRanges(ref.ranges, expected, 1e-5f);
 }
 
 int main(int argc, char** argv)

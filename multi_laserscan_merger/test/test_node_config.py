@@ -87,6 +87,8 @@ def test_shipped_config_starts(ros_env):
     ('use_inf: false\nfinite_only: true\nsources: [%s]' % GOOD_SOURCE, 'range_min'),
     ('output_frame: /base_link\nsources: [%s]' % GOOD_SOURCE, 'output_frame'),
     ('sources: [{name: a, topic: x, too_close_is_obstacle: "yes"}]', 'sources[0].too_close_is_obstacle'),
+    ('sources: [{name: a, topic: x, drop_explained_within: -0.1}]', 'sources[0].drop_explained_within'),
+    ('sources: [{name: a, topic: x, drop_explained_within: near}]', 'sources[0].drop_explained_within'),
     ('sources: [%s, {name: b, topic: merged_scan}]' % GOOD_SOURCE, 'sources[1].topic'),
 ])
 def test_bad_config_stops_node_naming_parameter(ros_env, yaml_text, parameter):

@@ -102,6 +102,9 @@ SOURCE = {
     "deskew": Key("bool", False),
     "too_close_is_obstacle": Key("bool", True, doc="-Inf is an obstacle at the sensor's range_min"),
     "footprint_filter": Key("bool", True, doc="false: the merger's footprint does not apply"),
+    "drop_explained_within": Key("float", 0.0, "m", lo=0.0, finite=True,
+                                 doc="> 0: a scan with a return this close to another source's is dropped "
+                                     "(sonar arcs); 0 = off"),
 }
 SOURCE_REQUIRED = ("name", "topic")
 # angle_min > angle_max is allowed for a source mask: it wraps around +-pi.

@@ -136,6 +136,9 @@ public:
   /// odom: pose queue for motion compensation (nullptr or empty: none, and no deskew).
   /// output_T_robot: output frame <- odometry child frame (identity when they coincide).
   /// status (resized to the number of sources) tells what happened to each input.
+  /// Sources with drop_explained_within > 0 are fused after the others, each judged against
+  /// those others only (their order does not matter): a scan with a return within that distance
+  /// of another source's return in the same bin is dropped whole, otherwise fused as usual.
   /// No memory is allocated once the buffers have grown to size.
   void merge(const std::vector<SourceInput>& inputs, double t_out, const OdometryBuffer* odom,
              const Eigen::Isometry3d& output_T_robot, MergedScan& out, std::vector<SourceStatus>& status);
@@ -157,6 +160,10 @@ private:
     std::vector<float> in_fov;             ///< 1 inside the source's mask (float: keeps the hot loop vectorisable)
   };
   void updateCache(std::size_t source, const ScanView& scan);
+  /// A return of own_bins_ lies within the source's drop_explained_within of first_pass_bins_.
+  bool explainedByFirstPass(std::size_t source) const;
+  /// Fuses own_bins_ (and own_ibins_) into bins_ (ibins_) by the first pass's rule.
+  void fuseOwnBins(bool with_intensity);
   template <bool kInterpolate>
   void addScan(std::size_t source, const SourceInput& in, const Eigen::Matrix<float, 2, 3>* transforms,
                std::size_t group_size, bool with_intensity);
@@ -171,6 +178,8 @@ private:
   std::vector<int> bin_buffer_;
   std::vector<float> range_buffer_, x_buffer_, y_buffer_;
   std::vector<float> bins_, ibins_;  ///< fusion buffers: n_out bins + scratch bins (see beam_kernel.hpp)
+  /// Second pass (drop_explained_within): the first-pass bins, and one such source's own bins.
+  std::vector<float> first_pass_bins_, own_bins_, own_ibins_;
 };
 
 }  // namespace multi_laserscan_merger

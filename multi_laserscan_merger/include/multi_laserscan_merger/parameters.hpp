@@ -73,6 +73,11 @@ struct SourceParams
   /// invalid reading (false).
   bool too_close_is_obstacle = true;
   bool footprint_filter = true;  ///< false: the output footprint does not apply to this source
+  /// m; > 0: this source only adds what the other sources do not explain (for sonar arcs, whose
+  /// cone widening draws false obstacles). It is fused after all sources without this option;
+  /// its whole scan is dropped when any of its returns lies within this distance of a return of
+  /// those sources in the same output bin. 0 = off (fused like any other source).
+  double drop_explained_within = 0.0;
 
   /// Throws ParameterError; `prefix` is e.g. "sources[1]".
   void validate(const std::string& prefix) const;
