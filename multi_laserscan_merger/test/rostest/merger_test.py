@@ -167,14 +167,17 @@ class MergerTest(unittest.TestCase):
         self.assertGreater(len(outs), 0)
         stamps = [t for t, _ in outs]
         if self.mode == 'every':
-            # One output per input (counted by publish / receive time in the window), each
-            # stamped with the newest scan: an input's stamp (inputs from different
-            # connections may arrive out of order, so not necessarily the one just received).
+            # One output per input that is newer than the last output (counted by publish /
+            # receive time in the window), each stamped with the newest scan: an input's stamp.
+            # Inputs from different connections may arrive out of order; one older than the
+            # last output goes into the next output instead of repeating a stamp (about 12 %
+            # of these inputs on a fully loaded 2-core machine, none on an idle one).
             with self.lock:
                 received = sum(1 for t in self.arrivals if start <= t <= end)
             rospy.loginfo('%d inputs published, %d outputs received in %.1f s', len(all_inputs), received, end - start)
-            self.assertGreaterEqual(received, 0.95 * len(all_inputs) - 2)
+            self.assertGreaterEqual(received, 0.75 * len(all_inputs) - 2)
             self.assertLessEqual(received, len(all_inputs) + 4)
+            self.assertTrue(all(a < b for a, b in zip(stamps, stamps[1:])), 'output stamps repeat or go back')
             with self.lock:
                 every_input = set(t for v in self.published.values() for t in v)
             self.assertTrue(all(t in every_input for t in stamps))
