@@ -10,26 +10,15 @@
 #include <string>
 #include <vector>
 
+#include "laserscan_common/parameter_error.hpp"
+
 namespace multi_laserscan_merger
 {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-/// Thrown by validate(); what() is "<parameter>: <reason>".
-class ParameterError : public std::invalid_argument
-{
-public:
-  ParameterError(const std::string& parameter, const std::string& reason)
-    : std::invalid_argument(parameter + ": " + reason), parameter_(parameter), reason_(reason)
-  {}
-  const std::string& parameter() const { return parameter_; }
-  const std::string& reason() const { return reason_; }
-
-private:
-  std::string parameter_;
-  std::string reason_;
-};
+using laserscan_common::ParameterError;
 
 /// Geometry and limits of the merged scan (REP 117 conventions).
 struct OutputParams
