@@ -6,9 +6,9 @@
 
 #include <tuple>
 
-#include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/cloud_view.hpp"
 #include "depth_filter_scan_converter/fast_atan2.h"
-#include "depth_filter_scan_converter/projector.h"
+#include "depth_filter_scan_converter/projector.hpp"
 
 namespace py = pybind11;
 namespace dfsc = depth_filter_scan_converter;

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "depth_filter_scan_converter/range_to_scan.h"
+#include "depth_filter_scan_converter/range_to_scan.hpp"
 
 namespace py = pybind11;
 namespace dfsc = depth_filter_scan_converter;

@@ -1,4 +1,4 @@
-#include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/cloud_view.hpp"
 
 namespace depth_filter_scan_converter
 {

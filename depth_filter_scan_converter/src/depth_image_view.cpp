@@ -1,4 +1,4 @@
-#include "depth_filter_scan_converter/depth_image_view.h"
+#include "depth_filter_scan_converter/depth_image_view.hpp"
 
 #include <cmath>
 

@@ -1,4 +1,4 @@
-#include "depth_filter_scan_converter/run_node.h"
+#include "depth_filter_scan_converter/run_node.hpp"
 
 int main(int argc, char** argv)
 {

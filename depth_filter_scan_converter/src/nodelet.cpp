@@ -4,7 +4,7 @@
 #include <memory>
 #include <stdexcept>
 
-#include "depth_filter_scan_converter/depth_filter_scan_converter.h"
+#include "depth_filter_scan_converter/depth_filter_scan_converter_ros.hpp"
 
 namespace depth_filter_scan_converter
 {

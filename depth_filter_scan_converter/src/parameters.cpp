@@ -1,4 +1,4 @@
-#include "depth_filter_scan_converter/parameters.h"
+#include "depth_filter_scan_converter/parameters.hpp"
 
 #include <limits>
 #include <stdexcept>

@@ -1,4 +1,4 @@
-#include "depth_filter_scan_converter/projector.h"
+#include "depth_filter_scan_converter/projector.hpp"
 
 #include <cfloat>
 #include <cmath>

@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-#include "depth_filter_scan_converter/range_scan_converter.h"
+#include "depth_filter_scan_converter/range_scan_converter_ros.hpp"
 
 int main(int argc, char** argv)
 {

@@ -1,4 +1,4 @@
-#include "depth_filter_scan_converter/range_to_scan.h"
+#include "depth_filter_scan_converter/range_to_scan.hpp"
 
 #include <algorithm>
 #include <cmath>

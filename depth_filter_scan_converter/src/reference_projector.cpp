@@ -4,7 +4,7 @@
 #include <limits>
 #include <utility>
 
-#include "depth_filter_scan_converter/projector.h"
+#include "depth_filter_scan_converter/projector.hpp"
 
 namespace depth_filter_scan_converter
 {

@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "depth_filter_scan_converter/depth_image_view.h"
-#include "depth_filter_scan_converter/projector.h"
-#include "depth_image_fixtures.h"
-#include "pcl_cloud.h"
+#include "depth_filter_scan_converter/depth_image_view.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
+#include "depth_image_fixtures.hpp"
+#include "pcl_cloud.hpp"
 
 namespace dfsc = depth_filter_scan_converter;
 using namespace dfsc::test;  // NOLINT: fixtures

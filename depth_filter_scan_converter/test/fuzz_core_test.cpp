@@ -8,8 +8,8 @@
 #include <iostream>
 #include <stdexcept>
 
-#include "depth_filter_scan_converter/cloud_view.h"
-#include "depth_filter_scan_converter/projector.h"
+#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
 #include "fuzz_values.h"
 
 using namespace depth_filter_scan_converter;

@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "depth_filter_scan_converter/range_to_scan.h"
+#include "depth_filter_scan_converter/range_to_scan.hpp"
 
 namespace dfsc = depth_filter_scan_converter;
 

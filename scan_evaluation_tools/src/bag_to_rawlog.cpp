@@ -1,7 +1,7 @@
 // bag_to_rawlog: the LaserScans of one topic of a ROS 1 bag, with the wheel odometry and the
 // sensor mounts from tf, as an MRPT rawlog of action/observation pairs (what rbpf-slam and
 // pf-localization read). See the package README for the options and the conventions.
-#include "scan_evaluation_tools/odometry_track.h"
+#include "scan_evaluation_tools/odometry_track.hpp"
 
 #include <mrpt/io/CFileGZOutputStream.h>
 #include <mrpt/obs/CActionCollection.h>

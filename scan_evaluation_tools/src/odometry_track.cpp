@@ -1,4 +1,4 @@
-#include "scan_evaluation_tools/odometry_track.h"
+#include "scan_evaluation_tools/odometry_track.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,11 +1,11 @@
-#include "depth_filter_scan_converter/range_scan_converter.h"
+#include "depth_filter_scan_converter/range_scan_converter_ros.hpp"
 
 #include <sensor_msgs/LaserScan.h>
 
 #include <boost/make_shared.hpp>
 #include <stdexcept>
 
-#include "depth_filter_scan_converter/ros_param.h"
+#include "depth_filter_scan_converter/ros_param.hpp"
 
 namespace depth_filter_scan_converter
 {

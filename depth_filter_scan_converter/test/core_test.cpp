@@ -11,13 +11,13 @@
 #include <string>
 #include <vector>
 
-#include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/cloud_view.hpp"
 #include "depth_filter_scan_converter/fast_atan2.h"
 #include "depth_filter_scan_converter/header_check.h"
-#include "depth_filter_scan_converter/parameters.h"
-#include "depth_filter_scan_converter/projector.h"
-#include "cloud_fixtures.h"
-#include "pcl_cloud.h"
+#include "depth_filter_scan_converter/parameters.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
+#include "cloud_fixtures.hpp"
+#include "pcl_cloud.hpp"
 
 namespace dfsc = depth_filter_scan_converter;
 
@@ -587,7 +587,7 @@ TEST(Projector, AgreesWithTheReferenceOnRandomMounts)
     dfsc::referenceProject(p, cloud.view(), cam, ref);
     const std::vector<float> fast = project(p, cloud, cam);
     finite += countFinite(fast);
-    // A few bins may differ where a point lies within micro-units of a border (see projector.h).
+    // A few bins may differ where a point lies within micro-units of a border (see projector.hpp).
     EXPECT_LE(countDisagreements(fast, ref), 2u) << "trial " << trial;
   }
   EXPECT_GT(finite, 1000u);

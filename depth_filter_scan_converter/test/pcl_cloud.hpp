@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-#include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/cloud_view.hpp"
 
 namespace depth_filter_scan_converter
 {

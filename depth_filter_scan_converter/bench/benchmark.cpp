@@ -10,10 +10,10 @@
 #include <map>
 #include <string>
 
-#include "../test/cloud_fixtures.h"
-#include "../test/depth_image_fixtures.h"
-#include "../test/pcl_cloud.h"
-#include "depth_filter_scan_converter/projector.h"
+#include "../test/cloud_fixtures.hpp"
+#include "../test/depth_image_fixtures.hpp"
+#include "../test/pcl_cloud.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
 
 namespace dfsc = depth_filter_scan_converter;
 using namespace dfsc::test;  // NOLINT: fixtures of the benchmark

@@ -1,7 +1,7 @@
 // The standalone nodes: one converter in its own process.
 #pragma once
 
-#include "depth_filter_scan_converter/depth_filter_scan_converter.h"
+#include "depth_filter_scan_converter/depth_filter_scan_converter_ros.hpp"
 
 namespace depth_filter_scan_converter
 {

@@ -11,7 +11,7 @@
 #include <mutex>
 #include <string>
 
-#include "depth_filter_scan_converter/range_to_scan.h"
+#include "depth_filter_scan_converter/range_to_scan.hpp"
 
 namespace depth_filter_scan_converter
 {

@@ -25,10 +25,10 @@
 #include <vector>
 
 #include "depth_filter_scan_converter/DepthFilterScanConverterConfig.h"
-#include "depth_filter_scan_converter/cloud_view.h"
-#include "depth_filter_scan_converter/depth_image_view.h"
-#include "depth_filter_scan_converter/parameters.h"
-#include "depth_filter_scan_converter/projector.h"
+#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/depth_image_view.hpp"
+#include "depth_filter_scan_converter/parameters.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
 
 namespace depth_filter_scan_converter
 {

@@ -5,9 +5,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "depth_filter_scan_converter/cloud_view.h"
-#include "depth_filter_scan_converter/depth_image_view.h"
-#include "depth_filter_scan_converter/parameters.h"
+#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/depth_image_view.hpp"
+#include "depth_filter_scan_converter/parameters.hpp"
 
 namespace depth_filter_scan_converter
 {

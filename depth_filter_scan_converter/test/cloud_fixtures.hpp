@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/cloud_view.hpp"
 
 namespace depth_filter_scan_converter
 {

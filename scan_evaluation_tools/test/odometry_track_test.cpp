@@ -1,5 +1,5 @@
 // The ROS-free core of bag_to_rawlog: interpolation of odometry and pose increments.
-#include "scan_evaluation_tools/odometry_track.h"
+#include "scan_evaluation_tools/odometry_track.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "depth_filter_scan_converter/depth_filter_scan_converter.h"
+#include "depth_filter_scan_converter/depth_filter_scan_converter_ros.hpp"
 
 #include <sensor_msgs/LaserScan.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -12,10 +12,10 @@
 #include <stdexcept>
 #include <type_traits>
 
-#include "depth_filter_scan_converter/cloud_view.h"
+#include "depth_filter_scan_converter/cloud_view.hpp"
 #include "depth_filter_scan_converter/header_check.h"
-#include "depth_filter_scan_converter/ros_param.h"
-#include "depth_filter_scan_converter/run_node.h"
+#include "depth_filter_scan_converter/ros_param.hpp"
+#include "depth_filter_scan_converter/run_node.hpp"
 
 namespace depth_filter_scan_converter
 {

@@ -8,7 +8,7 @@ subscribes to the output in both modes, so the figure is the merger process's CP
 and deserialise the inputs, merge, serialise the output) per output. Run after sourcing the
 build's devel/setup.bash:
 
-    /usr/bin/python3 multi_laserscan_merger/bench/measure_cpu.py [--seconds 20]
+    /usr/bin/python3 multi_laserscan_merger/bench/measure_node_cost.py [--seconds 20]
 """
 import argparse
 import math

@@ -15,9 +15,9 @@
 #include <stdexcept>
 #include <string>
 
-#include "cloud_fixtures.h"
-#include "depth_filter_scan_converter/cloud_view.h"
-#include "depth_filter_scan_converter/depth_image_view.h"
+#include "cloud_fixtures.hpp"
+#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/depth_image_view.hpp"
 
 namespace depth_filter_scan_converter
 {
