@@ -162,8 +162,8 @@ void runImageCore(benchmark::State& state, std::uint32_t width, std::uint32_t he
 void runImageCoreNoiseModel(benchmark::State& state, std::uint32_t width, std::uint32_t height)
 {
   dfsc::Parameters params;
-  params.range_noise_std = 0.001;
-  params.range_noise_std_per_m2 = 0.001;
+  params.noise.range_noise_std = 0.001;
+  params.noise.range_noise_std_per_m2 = 0.001;
   runImageCore(state, width, height, params);
 }
 

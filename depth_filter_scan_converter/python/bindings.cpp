@@ -74,6 +74,15 @@ Eigen::Isometry3d isometryOf(const Eigen::Matrix4d& m)
   return t;
 }
 
+/// A parameter of one concern's struct as a flat Python attribute.
+template <class Group, class T>
+void bindParameter(py::class_<dfsc::Parameters>& c, const char* name, Group dfsc::Parameters::*group, T Group::*member)
+{
+  c.def_property(
+    name, [group, member](const dfsc::Parameters& p) { return p.*group.*member; },
+    [group, member](dfsc::Parameters& p, const T& value) { p.*group.*member = value; });
+}
+
 py::array_t<float> toArray(const std::vector<float>& v)
 {
   return py::array_t<float>(static_cast<py::ssize_t>(v.size()), v.data());
@@ -84,38 +93,44 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
 {
   m.doc() = "ROS-free core of depth_filter_scan_converter";
 
-  m.attr("RANGE_NOISE_CLUSTER_WIDTH") = dfsc::Parameters::kClusterWidth;
-  m.attr("RANGE_NOISE_CLUSTER_CAP") = dfsc::Parameters::kClusterCap;
+  m.attr("RANGE_NOISE_CLUSTER_WIDTH") = dfsc::RangeNoiseParams::kClusterWidth;
+  m.attr("RANGE_NOISE_CLUSTER_CAP") = dfsc::RangeNoiseParams::kClusterCap;
 
-  py::class_<dfsc::Parameters>(m, "Parameters")
-    .def(py::init<>())
-    .def_readwrite("reference_frame", &dfsc::Parameters::reference_frame)
-    .def_readwrite("floor_height", &dfsc::Parameters::floor_height)
-    .def_readwrite("min_height", &dfsc::Parameters::min_height)
-    .def_readwrite("max_height", &dfsc::Parameters::max_height)
-    .def_readwrite("angle_min", &dfsc::Parameters::angle_min)
-    .def_readwrite("angle_max", &dfsc::Parameters::angle_max)
-    .def_readwrite("angle_increment", &dfsc::Parameters::angle_increment)
-    .def_readwrite("range_min", &dfsc::Parameters::range_min)
-    .def_readwrite("range_max", &dfsc::Parameters::range_max)
-    .def_readwrite("too_close_at_range_min", &dfsc::Parameters::too_close_at_range_min)
-    .def_readwrite("hole_detection", &dfsc::Parameters::hole_detection)
-    .def_readwrite("hole_depth", &dfsc::Parameters::hole_depth)
-    .def_readwrite("range_noise_std", &dfsc::Parameters::range_noise_std)
-    .def_readwrite("range_noise_std_per_m2", &dfsc::Parameters::range_noise_std_per_m2)
-    .def_readwrite("transform_tolerance", &dfsc::Parameters::transform_tolerance)
-    .def_readwrite("row_stride", &dfsc::Parameters::row_stride)
-    .def_readwrite("column_stride", &dfsc::Parameters::column_stride)
-    .def_readwrite("use_inf", &dfsc::Parameters::use_inf)
-    .def_readwrite("inf_epsilon", &dfsc::Parameters::inf_epsilon)
-    .def_readwrite("intensity_field", &dfsc::Parameters::intensity_field)
-    .def_readwrite("publish_filtered_cloud", &dfsc::Parameters::publish_filtered_cloud)
-    .def_readwrite("tf_buffer_duration", &dfsc::Parameters::tf_buffer_duration)
-    .def_readwrite("depth_image_rectified", &dfsc::Parameters::depth_image_rectified)
-    .def("validate", &dfsc::Parameters::validate, "Raises ValueError naming the bad parameter")
-    .def("beam_count", &dfsc::Parameters::beamCount)
-    .def("no_return_value", &dfsc::Parameters::noReturnValue)
-    .def("too_close_value", &dfsc::Parameters::tooCloseValue);
+  // Local: every module of the toolbox registers the same C++ type, each as its own Python class.
+  py::register_local_exception<dfsc::ParameterError>(m, "ParameterError", PyExc_ValueError);
+
+  // Flat, under the ROS parameter names (as check_config and the YAML files spell them); the
+  // C++ struct groups them by concern.
+  py::class_<dfsc::Parameters> params(m, "Parameters");
+  params.def(py::init<>());
+  using P = dfsc::Parameters;
+  bindParameter(params, "reference_frame", &P::transform, &dfsc::TransformParams::reference_frame);
+  bindParameter(params, "transform_tolerance", &P::transform, &dfsc::TransformParams::transform_tolerance);
+  bindParameter(params, "tf_buffer_duration", &P::transform, &dfsc::TransformParams::tf_buffer_duration);
+  bindParameter(params, "floor_height", &P::band, &dfsc::BandParams::floor_height);
+  bindParameter(params, "min_height", &P::band, &dfsc::BandParams::min_height);
+  bindParameter(params, "max_height", &P::band, &dfsc::BandParams::max_height);
+  bindParameter(params, "hole_detection", &P::band, &dfsc::BandParams::hole_detection);
+  bindParameter(params, "hole_depth", &P::band, &dfsc::BandParams::hole_depth);
+  bindParameter(params, "angle_min", &P::scan, &dfsc::ScanParams::angle_min);
+  bindParameter(params, "angle_max", &P::scan, &dfsc::ScanParams::angle_max);
+  bindParameter(params, "angle_increment", &P::scan, &dfsc::ScanParams::angle_increment);
+  bindParameter(params, "range_min", &P::scan, &dfsc::ScanParams::range_min);
+  bindParameter(params, "range_max", &P::scan, &dfsc::ScanParams::range_max);
+  bindParameter(params, "too_close_at_range_min", &P::scan, &dfsc::ScanParams::too_close_at_range_min);
+  bindParameter(params, "use_inf", &P::scan, &dfsc::ScanParams::use_inf);
+  bindParameter(params, "inf_epsilon", &P::scan, &dfsc::ScanParams::inf_epsilon);
+  bindParameter(params, "range_noise_std", &P::noise, &dfsc::RangeNoiseParams::range_noise_std);
+  bindParameter(params, "range_noise_std_per_m2", &P::noise, &dfsc::RangeNoiseParams::range_noise_std_per_m2);
+  bindParameter(params, "row_stride", &P::input, &dfsc::InputParams::row_stride);
+  bindParameter(params, "column_stride", &P::input, &dfsc::InputParams::column_stride);
+  bindParameter(params, "intensity_field", &P::input, &dfsc::InputParams::intensity_field);
+  bindParameter(params, "depth_image_rectified", &P::input, &dfsc::InputParams::depth_image_rectified);
+  params.def_readwrite("publish_filtered_cloud", &P::publish_filtered_cloud)
+    .def("validate", &P::validate, "Raises ParameterError (a ValueError) naming the bad parameter")
+    .def("beam_count", [](const P& p) { return p.scan.beamCount(); })
+    .def("no_return_value", [](const P& p) { return p.scan.noReturnValue(); })
+    .def("too_close_value", [](const P& p) { return p.scan.tooCloseValue(); });
 
   py::class_<dfsc::Projector>(m, "Projector")
     .def(py::init<const dfsc::Parameters&>(), py::arg("params"))

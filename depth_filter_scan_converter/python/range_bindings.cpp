@@ -12,7 +12,8 @@ namespace dfsc = depth_filter_scan_converter;
 PYBIND11_MODULE(depth_filter_scan_converter_range_core, m)
 {
   m.doc() = "sensor_msgs/Range -> LaserScan arc (the core of RangeScanConverterNodelet)";
-  py::register_exception<std::invalid_argument>(m, "ParameterError", PyExc_ValueError);
+  // Local: every module of the toolbox registers the same C++ type, each as its own Python class.
+  py::register_local_exception<dfsc::ParameterError>(m, "ParameterError", PyExc_ValueError);
 
   py::class_<dfsc::RangeScanParameters>(m, "RangeScanParameters")
     .def(py::init<>())

@@ -14,8 +14,6 @@
 
 #include "depth_filter_scan_converter/cloud_view.hpp"
 #include "depth_filter_scan_converter/header_check.h"
-#include "depth_filter_scan_converter/ros_param.hpp"
-#include "depth_filter_scan_converter/run_node.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -63,29 +61,33 @@ std::string transformProblem(const geometry_msgs::TransformStamped& t)
 Parameters loadParameters(const ros::NodeHandle& pnh)
 {
   Parameters p;
-  readTypedParam(pnh, "reference_frame", p.reference_frame, "string");
-  readTypedParam(pnh, "floor_height", p.floor_height, "double");
-  readTypedParam(pnh, "min_height", p.min_height, "double");
-  readTypedParam(pnh, "max_height", p.max_height, "double");
-  readTypedParam(pnh, "angle_min", p.angle_min, "double");
-  readTypedParam(pnh, "angle_max", p.angle_max, "double");
-  readTypedParam(pnh, "angle_increment", p.angle_increment, "double");
-  readTypedParam(pnh, "range_min", p.range_min, "double");
-  readTypedParam(pnh, "range_max", p.range_max, "double");
-  readTypedParam(pnh, "hole_detection", p.hole_detection, "bool");
-  readTypedParam(pnh, "hole_depth", p.hole_depth, "double");
-  readTypedParam(pnh, "range_noise_std", p.range_noise_std, "double");
-  readTypedParam(pnh, "range_noise_std_per_m2", p.range_noise_std_per_m2, "double");
-  readTypedParam(pnh, "transform_tolerance", p.transform_tolerance, "double");
-  readTypedParam(pnh, "row_stride", p.row_stride, "int");
-  readTypedParam(pnh, "column_stride", p.column_stride, "int");
-  readTypedParam(pnh, "use_inf", p.use_inf, "bool");
-  readTypedParam(pnh, "inf_epsilon", p.inf_epsilon, "double");
-  readTypedParam(pnh, "intensity_field", p.intensity_field, "string");
+  TransformParams& transform = p.transform;
+  readTypedParam(pnh, "reference_frame", transform.reference_frame, "string");
+  readTypedParam(pnh, "transform_tolerance", transform.transform_tolerance, "double");
+  readTypedParam(pnh, "tf_buffer_duration", transform.tf_buffer_duration, "double");
+  BandParams& band = p.band;
+  readTypedParam(pnh, "floor_height", band.floor_height, "double");
+  readTypedParam(pnh, "min_height", band.min_height, "double");
+  readTypedParam(pnh, "max_height", band.max_height, "double");
+  readTypedParam(pnh, "hole_detection", band.hole_detection, "bool");
+  readTypedParam(pnh, "hole_depth", band.hole_depth, "double");
+  ScanParams& scan = p.scan;
+  readTypedParam(pnh, "angle_min", scan.angle_min, "double");
+  readTypedParam(pnh, "angle_max", scan.angle_max, "double");
+  readTypedParam(pnh, "angle_increment", scan.angle_increment, "double");
+  readTypedParam(pnh, "range_min", scan.range_min, "double");
+  readTypedParam(pnh, "range_max", scan.range_max, "double");
+  readTypedParam(pnh, "too_close_at_range_min", scan.too_close_at_range_min, "bool");
+  readTypedParam(pnh, "use_inf", scan.use_inf, "bool");
+  readTypedParam(pnh, "inf_epsilon", scan.inf_epsilon, "double");
+  readTypedParam(pnh, "range_noise_std", p.noise.range_noise_std, "double");
+  readTypedParam(pnh, "range_noise_std_per_m2", p.noise.range_noise_std_per_m2, "double");
+  InputParams& input = p.input;
+  readTypedParam(pnh, "row_stride", input.row_stride, "int");
+  readTypedParam(pnh, "column_stride", input.column_stride, "int");
+  readTypedParam(pnh, "intensity_field", input.intensity_field, "string");
+  readTypedParam(pnh, "depth_image_rectified", input.depth_image_rectified, "bool");
   readTypedParam(pnh, "publish_filtered_cloud", p.publish_filtered_cloud, "bool");
-  readTypedParam(pnh, "tf_buffer_duration", p.tf_buffer_duration, "double");
-  readTypedParam(pnh, "too_close_at_range_min", p.too_close_at_range_min, "bool");
-  readTypedParam(pnh, "depth_image_rectified", p.depth_image_rectified, "bool");
   p.validate();
   return p;
 }
@@ -96,14 +98,12 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
     input_(input),
     input_topic_(nh.resolveName(input == DepthInput::Cloud ? "cloud_in" : "image")),
     params_(loadParameters(private_nh)),
-    tf_buffer_(ros::Duration(params_.tf_buffer_duration)),
+    queue_size_(readQueueSize(private_nh)),
+    tf_buffer_(ros::Duration(params_.transform.tf_buffer_duration)),
+    lazy_([this] { subscribeInput(); }, [this] { unsubscribeInput(); }),
     projector_(params_),
-    updater_(nh, private_nh, private_nh.getNamespace())
+    diagnostics_(nh, private_nh, [this](diagnostic_updater::DiagnosticStatusWrapper& status) { diagnose(status); })
 {
-  readTypedParam(private_nh_, "queue_size", queue_size_, "int");
-  if (queue_size_ < 1)
-    throw std::invalid_argument("parameter 'queue_size' must be >= 1");
-
   tf_sub_ = nh_.subscribe("/tf", 100, &DepthFilterScanConverter::tfArrived, this);
   tf_static_sub_ = nh_.subscribe("/tf_static", 100, &DepthFilterScanConverter::tfStaticArrived, this);
 
@@ -112,7 +112,8 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
   const auto queue = static_cast<std::uint32_t>(queue_size_);
   if (input_ == DepthInput::Cloud)
   {
-    cloud_filter_ = std::make_unique<tf2_ros::MessageFilter<Cloud>>(tf_buffer_, params_.reference_frame, queue, nh_);
+    cloud_filter_ =
+      std::make_unique<tf2_ros::MessageFilter<Cloud>>(tf_buffer_, params_.transform.reference_frame, queue, nh_);
     cloud_filter_->registerCallback([this](const Cloud::ConstPtr& cloud) { process(cloud); });
     cloud_filter_->registerFailureCallback(
       [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
@@ -122,7 +123,8 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
   }
   else
   {
-    image_filter_ = std::make_unique<tf2_ros::MessageFilter<Image>>(tf_buffer_, params_.reference_frame, queue, nh_);
+    image_filter_ =
+      std::make_unique<tf2_ros::MessageFilter<Image>>(tf_buffer_, params_.transform.reference_frame, queue, nh_);
     image_filter_->registerCallback([this](const Image::ConstPtr& image) { process(image); });
     image_filter_->registerFailureCallback(
       [this](const Image::ConstPtr& image, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
@@ -140,60 +142,44 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
   reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<Config>>(private_nh_);
   reconfigure_server_->setCallback([this](Config& config, std::uint32_t level) { reconfigure(config, level); });
 
-  updater_.setHardwareID(private_nh_.getNamespace());  // the node's name: one converter per camera
-  updater_.add("Input and processing", this, &DepthFilterScanConverter::diagnose);
-  last_report_ = ros::WallTime::now();
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { updater_.update(); });
-
-  // Lazy: subscribe to the cloud only while someone listens to an output.
-  std::lock_guard<std::mutex> lock(connect_mutex_);
-  const ros::SubscriberStatusCallback connect = [this](const ros::SingleSubscriberPublisher&) { connectCallback(); };
-  scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 10, connect, connect);
+  // Lazy: subscribe to the input only while someone listens to an output.
+  scan_pub_ = lazy_.advertise<sensor_msgs::LaserScan>(nh_, "scan", 10);
   if (params_.publish_filtered_cloud)
-    cloud_pub_ = nh_.advertise<Cloud>("filtered_cloud", 2, connect, connect);
+    cloud_pub_ = lazy_.advertise<Cloud>(nh_, "filtered_cloud", 2);
 }
 
 DepthFilterScanConverter::~DepthFilterScanConverter()
 {
   // Stop the input first: no callback may reach a half-destroyed object.
-  std::lock_guard<std::mutex> lock(connect_mutex_);
+  lazy_.shutdown();
+  diagnostics_.stop();
+}
+
+void DepthFilterScanConverter::subscribeInput()
+{
+  const auto queue = static_cast<std::uint32_t>(queue_size_);
+  if (input_ == DepthInput::Cloud)
+  {
+    cloud_sub_.subscribe(nh_, "cloud_in", queue);
+  }
+  else
+  {
+    image_sub_.subscribe(nh_, "image", queue);
+    info_sub_.subscribe(nh_, "camera_info", queue);
+  }
+}
+
+void DepthFilterScanConverter::unsubscribeInput()
+{
   cloud_sub_.unsubscribe();
   image_sub_.unsubscribe();
   info_sub_.unsubscribe();
-  diagnostics_timer_.stop();
-}
-
-void DepthFilterScanConverter::connectCallback()
-{
-  std::lock_guard<std::mutex> lock(connect_mutex_);
-  const bool listeners = scan_pub_.getNumSubscribers() > 0 || (cloud_pub_ && cloud_pub_.getNumSubscribers() > 0);
-  const auto queue = static_cast<std::uint32_t>(queue_size_);
-  if (listeners && !subscribed_)
-  {
-    if (input_ == DepthInput::Cloud)
-    {
-      cloud_sub_.subscribe(nh_, "cloud_in", queue);
-    }
-    else
-    {
-      image_sub_.subscribe(nh_, "image", queue);
-      info_sub_.subscribe(nh_, "camera_info", queue);
-    }
-    subscribed_ = true;
-  }
-  else if (!listeners && subscribed_)
-  {
-    cloud_sub_.unsubscribe();
-    image_sub_.unsubscribe();
-    info_sub_.unsubscribe();
-    subscribed_ = false;
-  }
 }
 
 void DepthFilterScanConverter::addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static)
 {
   // tf_buffer_ locks itself; the margin is the one the headers of our inputs get (headerProblem).
-  const double margin = params_.tf_buffer_duration + params_.transform_tolerance;
+  const double margin = params_.transform.tf_buffer_duration + params_.transform.transform_tolerance;
   const std::string& authority = event.getPublisherName();
   for (const auto& t : event.getMessage()->transforms)
   {
@@ -241,7 +227,8 @@ void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message
     // The usual case, the transform already there: convert now, without the filter's extra trip
     // through the callback queue (and its second tf query).
     const tf2::BufferCore& transforms = tf_buffer_;
-    if (transforms.canTransform(params_.reference_frame, tfFrameId(message->header.frame_id), message->header.stamp))
+    if (transforms.canTransform(params_.transform.reference_frame, tfFrameId(message->header.frame_id),
+                                message->header.stamp))
     {
       convert(*message, Arrival{ message, ros::Time(), info });
       return;
@@ -280,8 +267,8 @@ std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& head
 {
   if (header.frame_id.empty())
     return "empty frame_id (stamp " + stampText(header.stamp.sec, header.stamp.nsec) + ")";
-  const std::string stamp_problem =
-    stampProblem(header.stamp.sec, header.stamp.nsec, params_.tf_buffer_duration + params_.transform_tolerance);
+  const std::string stamp_problem = stampProblem(
+    header.stamp.sec, header.stamp.nsec, params_.transform.tf_buffer_duration + params_.transform.transform_tolerance);
   if (!stamp_problem.empty())
     return stamp_problem;
   bool had_slash = false;
@@ -308,10 +295,8 @@ void DepthFilterScanConverter::dropMalformed(const std::string& reason, const st
     std::copy_if(text.begin(), text.end(), std::back_inserter(k), [](char c) { return c < '0' || c > '9'; });
     return k;
   };
-  if (kind(reason) != kind(last_malformed_reason_))
-    warned_malformed_ = ros::WallTime();
   last_malformed_reason_ = reason;
-  if (due(warned_malformed_))
+  if (warn_malformed_.due(kind(reason)))
     ROS_WARN("[%s] dropped a malformed %s on %s (frame '%s'): %s", private_nh_.getNamespace().c_str(),
              input_ == DepthInput::Cloud ? "cloud" : "depth image", input_topic_.c_str(), frame_id.c_str(),
              reason.c_str());
@@ -340,32 +325,15 @@ void DepthFilterScanConverter::transformFailed(const boost::shared_ptr<const M>&
   last_tf_reason_ = failureText(reason);
   if (due(warned_tf_))
     ROS_WARN("[%s] dropped a cloud: no transform %s -> %s at %s: %s", private_nh_.getNamespace().c_str(),
-             cloud->header.frame_id.c_str(), params_.reference_frame.c_str(),
+             cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
              stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec).c_str(), last_tf_reason_.c_str());
-}
-
-bool DepthFilterScanConverter::due(ros::WallTime& last, double period)
-{
-  const ros::WallTime now = ros::WallTime::now();
-  if (!last.isZero() && (now - last).toSec() < period)
-    return false;
-  last = now;
-  return true;
 }
 
 std::string DepthFilterScanConverter::viewOf(const Cloud& cloud, const Arrival& /*arrival*/, CloudView& view)
 {
-  CloudLayout layout;
-  layout.width = cloud.width;
-  layout.height = cloud.height;
-  layout.point_step = cloud.point_step;
-  layout.row_step = cloud.row_step;
-  layout.is_bigendian = cloud.is_bigendian;
-  for (const auto& f : cloud.fields)
-    layout.fields.push_back({ f.name, f.offset, f.datatype, f.count });
   std::string intensity_note;
-  const std::string reason =
-    makeCloudView(layout, cloud.data.data(), cloud.data.size(), params_.intensity_field, view, &intensity_note);
+  const std::string reason = makeCloudView(cloudLayoutOf(cloud), cloud.data.data(), cloud.data.size(),
+                                           params_.input.intensity_field, view, &intensity_note);
   if (reason.empty() && !intensity_note.empty() && due(warned_intensity_, 30.0))
     ROS_WARN("[%s] %s: the scan has no intensities", private_nh_.getNamespace().c_str(), intensity_note.c_str());
   return reason;
@@ -375,14 +343,8 @@ std::string DepthFilterScanConverter::viewOf(const Image& image, const Arrival& 
 {
   if (!arrival.info)
     return "no camera_info for this image";
-  const CameraInfo& info = *arrival.info;
-  CameraModel model;
-  model.width = info.width;
-  model.height = info.height;
-  std::copy(info.K.begin(), info.K.end(), model.K);
-  std::copy(info.P.begin(), info.P.end(), model.P);
-  const ImageLayout layout{ image.width, image.height, image.step, image.encoding, image.is_bigendian != 0 };
-  return makeDepthImageView(layout, image.data.data(), image.data.size(), model, params_.depth_image_rectified, view);
+  return makeDepthImageView(imageLayoutOf(image), image.data.data(), image.data.size(), cameraModelOf(*arrival.info),
+                            params_.input.depth_image_rectified, view);
 }
 
 template <class M>
@@ -405,13 +367,13 @@ void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
   if (!arrival.time.isZero())
   {
     const double waited = (ros::Time::now() - arrival.time).toSec();
-    if (waited > params_.transform_tolerance)
+    if (waited > params_.transform.transform_tolerance)
     {
       ++stale_;
       if (due(warned_late_))
         ROS_WARN("[%s] dropped a cloud that waited %.3f s for its transform %s -> %s (transform_tolerance %.3f s)",
-                 name.c_str(), waited, cloud->header.frame_id.c_str(), params_.reference_frame.c_str(),
-                 params_.transform_tolerance);
+                 name.c_str(), waited, cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
+                 params_.transform.transform_tolerance);
       return;
     }
   }
@@ -427,12 +389,12 @@ void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
   Eigen::Isometry3d camera_to_reference;
   try
   {
-    const auto transform =
-      tf_buffer_.lookupTransform(params_.reference_frame, tfFrameId(cloud->header.frame_id), cloud->header.stamp);
+    const auto transform = tf_buffer_.lookupTransform(params_.transform.reference_frame,
+                                                      tfFrameId(cloud->header.frame_id), cloud->header.stamp);
     // Each stored transform is finite (addTransforms), but a chain of them can sum to infinity.
     if (!transformIsFinite(transform.transform))
       throw tf2::TransformException("the transform '" + tfFrameId(cloud->header.frame_id) + "' -> '" +
-                                    params_.reference_frame + "' at " +
+                                    params_.transform.reference_frame + "' at " +
                                     stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec) +
                                     " is not finite (a chain of transforms sums to infinity)");
     camera_to_reference = tf2::transformToEigen(transform);
@@ -448,14 +410,14 @@ void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
 
   auto scan = boost::make_shared<sensor_msgs::LaserScan>();
   scan->header.stamp = cloud->header.stamp;
-  scan->header.frame_id = params_.reference_frame;
-  scan->angle_min = static_cast<float>(params_.angle_min);
-  scan->angle_max = static_cast<float>(params_.angle_max);
-  scan->angle_increment = static_cast<float>(params_.angle_increment);
+  scan->header.frame_id = params_.transform.reference_frame;
+  scan->angle_min = static_cast<float>(params_.scan.angle_min);
+  scan->angle_max = static_cast<float>(params_.scan.angle_max);
+  scan->angle_increment = static_cast<float>(params_.scan.angle_increment);
   scan->time_increment = 0.0f;  // a depth image is taken at once
   scan->scan_time = 0.0f;
-  scan->range_min = static_cast<float>(params_.range_min);
-  scan->range_max = static_cast<float>(params_.range_max);
+  scan->range_min = static_cast<float>(params_.scan.range_min);
+  scan->range_max = static_cast<float>(params_.scan.range_max);
   const bool want_cloud = params_.publish_filtered_cloud && cloud_pub_ && cloud_pub_.getNumSubscribers() > 0;
   projector_.project(view, camera_to_reference, scan->ranges, &scan->intensities, want_cloud ? &kept_points_ : nullptr);
   scan_pub_.publish(scan);  // not touched after this: shared zero-copy with nodelets in the manager
@@ -496,13 +458,13 @@ void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level
 {
   std::lock_guard<std::mutex> lock(mutex_);
   auto write = [&config](const Parameters& p) {
-    config.floor_height = p.floor_height;
-    config.min_height = p.min_height;
-    config.max_height = p.max_height;
-    config.range_min = p.range_min;
-    config.range_max = p.range_max;
-    config.hole_detection = p.hole_detection;
-    config.hole_depth = p.hole_depth;
+    config.floor_height = p.band.floor_height;
+    config.min_height = p.band.min_height;
+    config.max_height = p.band.max_height;
+    config.range_min = p.scan.range_min;
+    config.range_max = p.scan.range_max;
+    config.hole_detection = p.band.hole_detection;
+    config.hole_depth = p.band.hole_depth;
   };
   if (first_reconfigure_)
   {
@@ -513,25 +475,25 @@ void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level
     return;
   }
   Parameters p = params_;
-  p.floor_height = config.floor_height;
-  p.min_height = config.min_height;
-  p.max_height = config.max_height;
-  p.range_min = config.range_min;
-  p.range_max = config.range_max;
-  p.hole_detection = config.hole_detection;
-  p.hole_depth = config.hole_depth;
+  p.band.floor_height = config.floor_height;
+  p.band.min_height = config.min_height;
+  p.band.max_height = config.max_height;
+  p.scan.range_min = config.range_min;
+  p.scan.range_max = config.range_max;
+  p.band.hole_detection = config.hole_detection;
+  p.band.hole_depth = config.hole_depth;
   try
   {
     projector_.setParameters(p);  // validates
     params_ = p;
     ROS_INFO("[%s] reconfigured: band %.3f .. %.3f m above floor %.3f m, range %.3f .. %.3f m, holes %s (depth %.3f m)",
-             private_nh_.getNamespace().c_str(), p.min_height, p.max_height, p.floor_height, p.range_min, p.range_max,
-             p.hole_detection ? "on" : "off", p.hole_depth);
+             private_nh_.getNamespace().c_str(), p.band.min_height, p.band.max_height, p.band.floor_height,
+             p.scan.range_min, p.scan.range_max, p.band.hole_detection ? "on" : "off", p.band.hole_depth);
   }
-  catch (const std::invalid_argument& e)
+  catch (const ParameterError& e)
   {
     ROS_WARN("[%s] rejected a dynamic_reconfigure change: %s; keeping the previous values",
-             private_nh_.getNamespace().c_str(), e.what());
+             private_nh_.getNamespace().c_str(), describe(e).c_str());
     write(params_);
   }
 }
@@ -539,10 +501,8 @@ void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level
 void DepthFilterScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  const ros::WallTime now = ros::WallTime::now();
-  const double period = std::max((now - last_report_).toSec(), 1e-3);
-  const double rate = static_cast<double>(received_ - received_at_last_report_) / period;
-  const bool subscribed = subscribed_;
+  const double rate = rate_.rate(received_);
+  const bool subscribed = lazy_.subscribed();
 
   // The summary names what dropped clouds since the last update, with the last reason of each.
   std::string dropped;
@@ -559,12 +519,7 @@ void DepthFilterScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrap
   add_cause(stale_, stale_at_last_report_, "late (transform_tolerance)", "");
   add_cause(without_info_, without_info_at_last_report_, "depth images without camera_info", "");
 
-  if (!dropped.empty())
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, dropped);
-  else if (subscribed && rate == 0.0)
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "subscribed, but nothing arrives on " + input_topic_);
-  else
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, subscribed ? "converting" : "idle (nobody listens)");
+  summarize(status, dropped, subscribed, rate, "subscribed, but nothing arrives on " + input_topic_);
 
   status.add("subscribed", subscribed);
   status.add("input rate [Hz]", rate);
@@ -580,34 +535,10 @@ void DepthFilterScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrap
     status.add("depth images without camera_info", without_info_);
   status.add("last malformed reason", last_malformed_reason_);
   status.add("last transform failure", last_tf_reason_);
-  received_at_last_report_ = received_;
   malformed_at_last_report_ = malformed_;
   tf_failures_at_last_report_ = tf_failures_;
   stale_at_last_report_ = stale_;
   without_info_at_last_report_ = without_info_;
-  last_report_ = now;
 }
 
-}  // namespace depth_filter_scan_converter
-
-namespace depth_filter_scan_converter
-{
-int runNode(int argc, char** argv, const char* name, DepthInput input)
-{
-  ros::init(argc, argv, name);
-  // Handles live outside the try: if the last one died with the converter, roscpp would shut
-  // down rosconsole and the fatal message below would never be printed.
-  ros::NodeHandle nh, private_nh("~");
-  try
-  {
-    DepthFilterScanConverter converter(nh, private_nh, input);
-    ros::spin();
-  }
-  catch (const std::invalid_argument& e)
-  {
-    ROS_FATAL("not starting: %s", e.what());
-    return 1;
-  }
-  return 0;
-}
 }  // namespace depth_filter_scan_converter

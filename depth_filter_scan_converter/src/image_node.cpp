@@ -1,7 +1,8 @@
-#include "depth_filter_scan_converter/run_node.hpp"
+#include "depth_filter_scan_converter/depth_filter_scan_converter_ros.hpp"
+#include "entry_points.hpp"
 
 int main(int argc, char** argv)
 {
-  return depth_filter_scan_converter::runNode(argc, argv, "depth_image_scan_converter",
-                                              depth_filter_scan_converter::DepthInput::Image);
+  using namespace depth_filter_scan_converter;
+  return runNode<DepthFilterScanConverter>(argc, argv, "depth_image_scan_converter", DepthInput::Image);
 }

@@ -386,7 +386,7 @@ void Projector::dispatchOutputs(const CloudView& cloud, const Frame& frame, bool
 Projector::Frame Projector::start(const Eigen::Isometry3d& camera_to_reference, std::vector<float>* kept_points)
 {
   const Parameters& p = params_;
-  const int beams = static_cast<int>(p.beamCount());
+  const int beams = static_cast<int>(p.scan.beamCount());
   best_r2_.assign(beams + kScratchSlots, std::numeric_limits<float>::infinity());
   if (kept_points)
     kept_points->clear();
@@ -397,22 +397,22 @@ Projector::Frame Projector::start(const Eigen::Isometry3d& camera_to_reference, 
   f.r00 = R(0, 0), f.r01 = R(0, 1), f.r02 = R(0, 2), f.t0 = static_cast<float>(t.x());
   f.r10 = R(1, 0), f.r11 = R(1, 1), f.r12 = R(1, 2), f.t1 = static_cast<float>(t.y());
   f.r20 = R(2, 0), f.r21 = R(2, 1), f.r22 = R(2, 2), f.t2 = static_cast<float>(t.z());
-  f.z_lo = clampToFloat(p.floor_height + p.min_height);
-  f.z_hi = clampToFloat(p.floor_height + p.max_height);
-  f.z_hole = clampToFloat(p.floor_height - p.hole_depth);
-  f.floor_z = static_cast<float>(p.floor_height);
-  f.r2_min = clampToFloat(p.range_min * p.range_min);
-  f.r2_max = clampToFloat(p.range_max * p.range_max);
-  f.a_lo = static_cast<float>(p.angle_min) - kAngleSlack;
-  f.a_hi = static_cast<float>(p.angle_max) + kAngleSlack;
-  f.a_min = static_cast<float>(p.angle_min);
-  f.inv_inc = static_cast<float>(1.0 / p.angle_increment);
+  f.z_lo = clampToFloat(p.band.floor_height + p.band.min_height);
+  f.z_hi = clampToFloat(p.band.floor_height + p.band.max_height);
+  f.z_hole = clampToFloat(p.band.floor_height - p.band.hole_depth);
+  f.floor_z = static_cast<float>(p.band.floor_height);
+  f.r2_min = clampToFloat(p.scan.range_min * p.scan.range_min);
+  f.r2_max = clampToFloat(p.scan.range_max * p.scan.range_max);
+  f.a_lo = static_cast<float>(p.scan.angle_min) - kAngleSlack;
+  f.a_hi = static_cast<float>(p.scan.angle_max) + kAngleSlack;
+  f.a_min = static_cast<float>(p.scan.angle_min);
+  f.inv_inc = static_cast<float>(1.0 / p.scan.angle_increment);
   f.beams = beams;
-  f.row_stride = static_cast<std::uint32_t>(p.row_stride);
-  f.column_stride = static_cast<std::uint32_t>(p.column_stride);
+  f.row_stride = static_cast<std::uint32_t>(p.input.row_stride);
+  f.column_stride = static_cast<std::uint32_t>(p.input.column_stride);
   // A ray from a camera at or below the floor never meets the floor in front of it.
-  f.hole = p.hole_detection && t.z() > p.floor_height;
-  f.cluster = p.clusterRanges();
+  f.hole = p.band.hole_detection && t.z() > p.band.floor_height;
+  f.cluster = p.noise.clusterRanges();
   recorded_points_ = 0;
   return f;
 }
@@ -433,8 +433,8 @@ void Projector::finish(const Frame& f, std::vector<float>& ranges)
 {
   const Parameters& p = params_;
   ranges.resize(f.beams);
-  const float no_return = p.noReturnValue();
-  const float too_close = p.tooCloseValue();
+  const float no_return = p.scan.noReturnValue();
+  const float too_close = p.scan.tooCloseValue();
   for (int b = 0; b < f.beams; ++b)
     ranges[b] = std::isinf(best_r2_[b]) ? no_return : best_r2_[b] < f.r2_min ? too_close : std::sqrt(best_r2_[b]);
   if (!f.cluster)
@@ -453,7 +453,7 @@ void Projector::finish(const Frame& f, std::vector<float>& ranges)
   {
     if (std::isinf(best_r2_[b]) || best_r2_[b] < f.r2_min)
       continue;  // no return, or too close: the closest point decides
-    const double limit = ranges[b] + Parameters::kClusterWidth * p.rangeNoiseStd(ranges[b]);
+    const double limit = ranges[b] + RangeNoiseParams::kClusterWidth * p.noise.rangeNoiseStd(ranges[b]);
     cluster_limit_r2_[b] = static_cast<float>(limit * limit);
   }
   const std::int32_t* const bins = point_bins_.data();
@@ -481,7 +481,7 @@ void Projector::finish(const Frame& f, std::vector<float>& ranges)
     if (count == 0)
       continue;
     const double closest = ranges[b];
-    const double cap = closest + Parameters::kClusterCap * p.rangeNoiseStd(closest);
+    const double cap = closest + RangeNoiseParams::kClusterCap * p.noise.rangeNoiseStd(closest);
     ranges[b] = static_cast<float>(std::min(sum / count, cap));
   }
 }

@@ -3,17 +3,9 @@
 #include <sensor_msgs/LaserScan.h>
 
 #include <boost/make_shared.hpp>
-#include <stdexcept>
-
-#include "depth_filter_scan_converter/ros_param.hpp"
 
 namespace depth_filter_scan_converter
 {
-namespace
-{
-constexpr double kWarnPeriod = 5.0;  // s between two messages about the same defect
-}  // namespace
-
 RangeScanParameters loadRangeScanParameters(const ros::NodeHandle& pnh)
 {
   RangeScanParameters p;
@@ -28,46 +20,28 @@ RangeScanParameters loadRangeScanParameters(const ros::NodeHandle& pnh)
 RangeScanConverter::RangeScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh)
   : nh_(nh),
     private_nh_(private_nh),
+    queue_size_(readQueueSize(private_nh)),
+    lazy_(
+      [this] {
+        {
+          std::lock_guard<std::mutex> state(mutex_);
+          converter_.reset();  // readings from before a pause do not confirm new ones
+        }
+        range_sub_ =
+          nh_.subscribe("range_in", static_cast<std::uint32_t>(queue_size_), &RangeScanConverter::rangeArrived, this);
+      },
+      [this] { range_sub_.shutdown(); }),
     converter_(loadRangeScanParameters(private_nh)),
-    updater_(nh, private_nh, private_nh.getNamespace())
+    diagnostics_(nh, private_nh, [this](diagnostic_updater::DiagnosticStatusWrapper& status) { diagnose(status); })
 {
-  readTypedParam(private_nh_, "queue_size", queue_size_, "int");
-  if (queue_size_ < 1)
-    throw std::invalid_argument("parameter 'queue_size' must be >= 1");
-
-  updater_.setHardwareID(private_nh_.getNamespace());  // the node's name: one ID per sensor
-  updater_.add("Input and processing", this, &RangeScanConverter::diagnose);
-  last_report_ = ros::WallTime::now();
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { updater_.update(); });
-
   // Lazy: subscribe to the ranges only while someone listens to the scan.
-  std::lock_guard<std::mutex> lock(connect_mutex_);
-  const ros::SubscriberStatusCallback connect = [this](const ros::SingleSubscriberPublisher&) { connectCallback(); };
-  scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 10, connect, connect);
+  scan_pub_ = lazy_.advertise<sensor_msgs::LaserScan>(nh_, "scan", 10);
 }
 
 RangeScanConverter::~RangeScanConverter()
 {
-  std::lock_guard<std::mutex> lock(connect_mutex_);
-  range_sub_.shutdown();
-  diagnostics_timer_.stop();
-}
-
-void RangeScanConverter::connectCallback()
-{
-  std::lock_guard<std::mutex> lock(connect_mutex_);
-  const bool listeners = scan_pub_.getNumSubscribers() > 0;
-  if (listeners && !range_sub_)
-  {
-    {
-      std::lock_guard<std::mutex> state(mutex_);
-      converter_.reset();  // readings from before a pause do not confirm new ones
-    }
-    range_sub_ =
-      nh_.subscribe("range_in", static_cast<std::uint32_t>(queue_size_), &RangeScanConverter::rangeArrived, this);
-  }
-  else if (!listeners && range_sub_)
-    range_sub_.shutdown();
+  lazy_.shutdown();
+  diagnostics_.stop();
 }
 
 void RangeScanConverter::rangeArrived(const sensor_msgs::Range::ConstPtr& msg)
@@ -90,14 +64,9 @@ void RangeScanConverter::rangeArrived(const sensor_msgs::Range::ConstPtr& msg)
     ++malformed_;
     // A new kind of defect is reported at once, the same one again at most every 5 s (per
     // converter: several in one manager do not hide each other's messages).
-    const ros::WallTime now = ros::WallTime::now();
-    if (reason != last_malformed_reason_ || warned_malformed_.isZero() ||
-        (now - warned_malformed_).toSec() >= kWarnPeriod)
-    {
+    if (warn_malformed_.due(reason))
       ROS_ERROR("[%s] dropped a bad range message (frame '%s', stamp %.3f): %s", private_nh_.getNamespace().c_str(),
                 msg->header.frame_id.c_str(), reading.stamp, reason.c_str());
-      warned_malformed_ = now;
-    }
     last_malformed_reason_ = reason;
     return;
   }
@@ -121,17 +90,11 @@ void RangeScanConverter::rangeArrived(const sensor_msgs::Range::ConstPtr& msg)
 void RangeScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  const ros::WallTime now = ros::WallTime::now();
-  const double period = std::max((now - last_report_).toSec(), 1e-3);
-  const double rate = static_cast<double>(received_ - received_at_last_report_) / period;
-  const bool subscribed = static_cast<bool>(range_sub_);
-
-  if (malformed_ > malformed_at_last_report_)
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "bad range messages dropped: " + last_malformed_reason_);
-  else if (subscribed && rate == 0.0)
-    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "subscribed, but no reading arrives on range_in");
-  else
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, subscribed ? "converting" : "idle (nobody listens)");
+  const double rate = rate_.rate(received_);
+  const bool subscribed = lazy_.subscribed();
+  summarize(status,
+            malformed_ > malformed_at_last_report_ ? "bad range messages dropped: " + last_malformed_reason_ : "",
+            subscribed, rate, "subscribed, but no reading arrives on range_in");
 
   status.add("subscribed", subscribed);
   status.add("input rate [Hz]", rate);
@@ -145,9 +108,7 @@ void RangeScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   status.add("bad messages dropped", malformed_);
   status.add("last bad message", last_malformed_reason_);
   status.add("stamp of the last reading [s]", last_stamp_);
-  received_at_last_report_ = received_;
   malformed_at_last_report_ = malformed_;
-  last_report_ = now;
 }
 
 }  // namespace depth_filter_scan_converter

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
-#include <stdexcept>
 
 namespace depth_filter_scan_converter
 {
@@ -13,10 +12,10 @@ namespace
 constexpr double kTwoPi = 2.0 * 3.14159265358979323846;
 constexpr std::size_t kMaxBeams = 100000;
 
-void require(bool ok, const std::string& name, const std::string& why)
+void require(bool ok, const char* parameter, const char* reason)
 {
   if (!ok)
-    throw std::invalid_argument("parameter '" + name + "' " + why);
+    throw ParameterError(parameter, reason);
 }
 
 std::string describe(const char* what, double value)

@@ -11,7 +11,7 @@ namespace depth_filter_scan_converter
 void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isometry3d& T, std::vector<float>& ranges,
                       std::vector<float>* intensities)
 {
-  const std::size_t beams = p.beamCount();
+  const std::size_t beams = p.scan.beamCount();
   ranges.assign(beams, std::numeric_limits<float>::infinity());
   std::vector<double> best(beams, std::numeric_limits<double>::infinity());
   const bool with_intensity = intensities && v.has_intensity;
@@ -20,9 +20,9 @@ void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isom
   const Eigen::Vector3d origin = T.translation();
   std::vector<std::pair<std::size_t, double>> beam_ranges;  // every obstacle, for clusterRanges()
 
-  for (std::uint32_t r = 0; r < v.height; r += p.row_stride)
+  for (std::uint32_t r = 0; r < v.height; r += p.input.row_stride)
   {
-    for (std::uint32_t c = 0; c < v.width; c += p.column_stride)
+    for (std::uint32_t c = 0; c < v.width; c += p.input.column_stride)
     {
       const std::uint8_t* pt =
         v.data + static_cast<std::size_t>(r) * v.row_step + static_cast<std::size_t>(c) * v.point_step;
@@ -33,23 +33,25 @@ void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isom
       double angle = std::atan2(q.y(), q.x());
       if (!q.allFinite())
         continue;
-      const bool in_band = q.z() >= p.floor_height + p.min_height && q.z() <= p.floor_height + p.max_height;
+      const bool in_band =
+        q.z() >= p.band.floor_height + p.band.min_height && q.z() <= p.band.floor_height + p.band.max_height;
       if (!in_band)
       {
-        const bool is_hole = p.hole_detection && q.z() < p.floor_height - p.hole_depth && origin.z() > p.floor_height;
+        const bool is_hole =
+          p.band.hole_detection && q.z() < p.band.floor_height - p.band.hole_depth && origin.z() > p.band.floor_height;
         if (!is_hole)
           continue;
-        const double t = (p.floor_height - origin.z()) / (q.z() - origin.z());
+        const double t = (p.band.floor_height - origin.z()) / (q.z() - origin.z());
         q = origin + t * (q - origin);
         range = std::hypot(q.x(), q.y());
         angle = std::atan2(q.y(), q.x());
       }
-      if (range > p.range_max || angle < p.angle_min || angle > p.angle_max)
+      if (range > p.scan.range_max || angle < p.scan.angle_min || angle > p.scan.angle_max)
         continue;
-      std::size_t bin = static_cast<std::size_t>(std::lround((angle - p.angle_min) / p.angle_increment));
+      std::size_t bin = static_cast<std::size_t>(std::lround((angle - p.scan.angle_min) / p.scan.angle_increment));
       if (bin >= beams)
         bin = beams - 1;
-      if (p.clusterRanges())
+      if (p.noise.clusterRanges())
         beam_ranges.emplace_back(bin, range);
       if (range < best[bin])
       {
@@ -59,18 +61,19 @@ void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isom
       }
     }
   }
-  const float no_return = p.noReturnValue();
+  const float no_return = p.scan.noReturnValue();
   for (std::size_t b = 0; b < beams; ++b)
-    ranges[b] = std::isinf(best[b])     ? no_return
-                : best[b] < p.range_min ? p.tooCloseValue()
-                                        : static_cast<float>(best[b]);
-  if (!p.clusterRanges())
+    ranges[b] = std::isinf(best[b])          ? no_return
+                : best[b] < p.scan.range_min ? p.scan.tooCloseValue()
+                                             : static_cast<float>(best[b]);
+  if (!p.noise.clusterRanges())
     return;
   std::vector<double> sum(beams, 0.0);
   std::vector<std::size_t> count(beams, 0);
   for (const auto& [bin, range] : beam_ranges)
   {
-    if (best[bin] >= p.range_min && range <= best[bin] + Parameters::kClusterWidth * p.rangeNoiseStd(best[bin]))
+    if (best[bin] >= p.scan.range_min &&
+        range <= best[bin] + RangeNoiseParams::kClusterWidth * p.noise.rangeNoiseStd(best[bin]))
     {
       sum[bin] += range;
       ++count[bin];
@@ -78,8 +81,8 @@ void referenceProject(const Parameters& p, const CloudView& v, const Eigen::Isom
   }
   for (std::size_t b = 0; b < beams; ++b)
     if (count[b] > 0)
-      ranges[b] =
-        static_cast<float>(std::min(sum[b] / count[b], best[b] + Parameters::kClusterCap * p.rangeNoiseStd(best[b])));
+      ranges[b] = static_cast<float>(
+        std::min(sum[b] / count[b], best[b] + RangeNoiseParams::kClusterCap * p.noise.rangeNoiseStd(best[b])));
 }
 
 }  // namespace depth_filter_scan_converter

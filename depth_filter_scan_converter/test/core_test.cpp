@@ -35,7 +35,7 @@ std::size_t countFinite(const std::vector<float>& r)
 
 std::size_t binOf(const dfsc::Parameters& p, double angle)
 {
-  return static_cast<std::size_t>(std::lround((angle - p.angle_min) / p.angle_increment));
+  return static_cast<std::size_t>(std::lround((angle - p.scan.angle_min) / p.scan.angle_increment));
 }
 
 std::vector<float> project(const dfsc::Parameters& p, const TestCloud& c, const Eigen::Isometry3d& t)
@@ -68,11 +68,11 @@ TEST(Parameters, DefaultsAreValidAndFollowTheFencepostRule)
 {
   dfsc::Parameters p;
   EXPECT_NO_THROW(p.validate());
-  EXPECT_EQ(p.beamCount(), 1441u);
-  p.angle_min = 0.0;
-  p.angle_max = 1.0;
-  p.angle_increment = 0.3;  // 3.33 increments: round -> 3, plus the fencepost
-  EXPECT_EQ(p.beamCount(), 4u);
+  EXPECT_EQ(p.scan.beamCount(), 1441u);
+  p.scan.angle_min = 0.0;
+  p.scan.angle_max = 1.0;
+  p.scan.angle_increment = 0.3;  // 3.33 increments: round -> 3, plus the fencepost
+  EXPECT_EQ(p.scan.beamCount(), 4u);
 }
 
 TEST(Parameters, ValidateNamesTheBadParameter)
@@ -85,49 +85,49 @@ TEST(Parameters, ValidateNamesTheBadParameter)
       p.validate();
       ADD_FAILURE() << "no exception for " << name;
     }
-    catch (const std::invalid_argument& e)
+    catch (const dfsc::ParameterError& e)
     {
-      EXPECT_NE(std::string(e.what()).find("'" + name + "'"), std::string::npos) << e.what();
+      EXPECT_EQ(e.parameter(), name) << e.what();
     }
   };
-  expectBad([](auto& p) { p.min_height = 2.0; }, "min_height");
-  expectBad([](auto& p) { p.max_height = kNaN; }, "max_height");
-  expectBad([](auto& p) { p.angle_min = 4.0; }, "angle_min");
-  expectBad([](auto& p) { p.angle_increment = 0.0; }, "angle_increment");
-  expectBad([](auto& p) { p.range_min = -1.0; }, "range_min");
-  expectBad([](auto& p) { p.range_min = 20.0; }, "range_min");
-  expectBad([](auto& p) { p.hole_depth = -0.1; }, "hole_depth");
-  expectBad([](auto& p) { p.transform_tolerance = -1.0; }, "transform_tolerance");
-  expectBad([](auto& p) { p.row_stride = 0; }, "row_stride");
-  expectBad([](auto& p) { p.column_stride = -2; }, "column_stride");
-  expectBad([](auto& p) { p.inf_epsilon = -1.0; }, "inf_epsilon");
-  expectBad([](auto& p) { p.reference_frame = ""; }, "reference_frame");
-  expectBad([](auto& p) { p.floor_height = kInf; }, "floor_height");
+  expectBad([](auto& p) { p.band.min_height = 2.0; }, "min_height");
+  expectBad([](auto& p) { p.band.max_height = kNaN; }, "max_height");
+  expectBad([](auto& p) { p.scan.angle_min = 4.0; }, "angle_min");
+  expectBad([](auto& p) { p.scan.angle_increment = 0.0; }, "angle_increment");
+  expectBad([](auto& p) { p.scan.range_min = -1.0; }, "range_min");
+  expectBad([](auto& p) { p.scan.range_min = 20.0; }, "range_min");
+  expectBad([](auto& p) { p.band.hole_depth = -0.1; }, "hole_depth");
+  expectBad([](auto& p) { p.transform.transform_tolerance = -1.0; }, "transform_tolerance");
+  expectBad([](auto& p) { p.input.row_stride = 0; }, "row_stride");
+  expectBad([](auto& p) { p.input.column_stride = -2; }, "column_stride");
+  expectBad([](auto& p) { p.scan.inf_epsilon = -1.0; }, "inf_epsilon");
+  expectBad([](auto& p) { p.transform.reference_frame = ""; }, "reference_frame");
+  expectBad([](auto& p) { p.band.floor_height = kInf; }, "floor_height");
   expectBad(
     [](auto& p) {
-      p.use_inf = false;
-      p.range_max = kInf;
+      p.scan.use_inf = false;
+      p.scan.range_max = kInf;
     },
     "range_max");
   // "No limit" is spelled +/-inf and is valid.
   dfsc::Parameters p;
-  p.min_height = -kInf;
-  p.max_height = kInf;
-  p.range_max = kInf;
+  p.band.min_height = -kInf;
+  p.band.max_height = kInf;
+  p.scan.range_max = kInf;
   EXPECT_NO_THROW(p.validate());
 }
 
 TEST(Projector, SetParametersRejectsInvalidAndKeepsTheOldOnes)
 {
   dfsc::Parameters p;
-  p.max_height = 0.7;
+  p.band.max_height = 0.7;
   dfsc::Projector proj(p);
   dfsc::Parameters bad = p;
-  bad.min_height = 0.9;
-  EXPECT_THROW(proj.setParameters(bad), std::invalid_argument);
-  EXPECT_DOUBLE_EQ(proj.parameters().max_height, 0.7);
-  EXPECT_DOUBLE_EQ(proj.parameters().min_height, 0.05);
-  EXPECT_THROW(dfsc::Projector{ bad }, std::invalid_argument);
+  bad.band.min_height = 0.9;
+  EXPECT_THROW(proj.setParameters(bad), dfsc::ParameterError);
+  EXPECT_DOUBLE_EQ(proj.parameters().band.max_height, 0.7);
+  EXPECT_DOUBLE_EQ(proj.parameters().band.min_height, 0.05);
+  EXPECT_THROW(dfsc::Projector{ bad }, dfsc::ParameterError);
 }
 
 // ---------------------------------------------------------------- angle approximation
@@ -166,12 +166,12 @@ TEST(Projector, CameraPitched30DegOverEmptyFloorGivesNoReturn)
 
   dfsc::Parameters p;
   const std::vector<float> ranges = project(p, cloud, cam);
-  ASSERT_EQ(ranges.size(), p.beamCount());
+  ASSERT_EQ(ranges.size(), p.scan.beamCount());
   for (float r : ranges)
     EXPECT_TRUE(std::isinf(r) && r > 0);
 
   // Same floor, band lowered to include it: now it shows, so the test above is not vacuous.
-  p.min_height = -0.01;
+  p.band.min_height = -0.01;
   EXPECT_GT(countFinite(project(p, cloud, cam)), 100u);
 }
 
@@ -186,7 +186,7 @@ TEST(Projector, WallAtKnownDistance)
   std::size_t seen = 0;
   for (std::size_t i = 0; i < ranges.size(); ++i)
   {
-    const double a = p.angle_min + i * p.angle_increment;
+    const double a = p.scan.angle_min + i * p.scan.angle_increment;
     if (std::fabs(a) < 28 * kDeg)
     {
       ASSERT_TRUE(std::isfinite(ranges[i])) << "beam " << i;
@@ -207,10 +207,10 @@ TEST(Projector, WallAtKnownDistance)
 TEST(Projector, TableTopJustInsideAndJustOutsideTheBand)
 {
   dfsc::Parameters p;
-  p.floor_height = -0.147;
-  p.min_height = 0.05;
-  p.max_height = 0.8;
-  const double lo = p.floor_height + p.min_height, hi = p.floor_height + p.max_height;
+  p.band.floor_height = -0.147;
+  p.band.min_height = 0.05;
+  p.band.max_height = 0.8;
+  const double lo = p.band.floor_height + p.band.min_height, hi = p.band.floor_height + p.band.max_height;
   // One table top per direction, 1.5 m away: heights 2 mm inside or outside the band.
   const double heights[] = { lo + 0.002, lo - 0.002, hi - 0.002, hi + 0.002 };
   const double angles[] = { -0.4, -0.1, 0.2, 0.5 };
@@ -254,8 +254,8 @@ TEST(Projector, HoleBecomesObstacleWhereTheCameraRayMeetsTheFloor)
   dfsc::Parameters p;
   EXPECT_EQ(countFinite(project(p, cloud, cam)), 0u);  // hole detection is off by default
 
-  p.hole_detection = true;
-  p.hole_depth = 0.05;
+  p.band.hole_detection = true;
+  p.band.hole_depth = 0.05;
   dfsc::Projector proj(p);
   std::vector<float> ranges, kept;
   proj.project(cloud.view(), cam, ranges, nullptr, &kept);
@@ -270,14 +270,14 @@ TEST(Projector, HoleBecomesObstacleWhereTheCameraRayMeetsTheFloor)
   EXPECT_NEAR(kept[2], 0.0, 1e-6);
 
   // Range limits apply to the crossing, not to the hole point.
-  p.range_max = 1.5;
+  p.scan.range_max = 1.5;
   EXPECT_EQ(countFinite(project(p, cloud, cam)), 0u);
 
   // A camera below the floor sees no hole in front of it.
-  p.range_max = 10.0;
-  p.floor_height = 1.5;
-  p.min_height = 2.0;
-  p.max_height = 3.0;
+  p.scan.range_max = 10.0;
+  p.band.floor_height = 1.5;
+  p.band.min_height = 2.0;
+  p.band.max_height = 3.0;
   EXPECT_EQ(countFinite(project(p, cloud, cam)), 0u);
 }
 
@@ -293,9 +293,9 @@ TEST(Projector, PointExactlyOnAngleMaxStaysInBounds)
   }
   {
     dfsc::Parameters p;
-    p.angle_min = -1.0;
-    p.angle_max = 1.0;
-    p.angle_increment = 0.01;
+    p.scan.angle_min = -1.0;
+    p.scan.angle_max = 1.0;
+    p.scan.angle_increment = 0.01;
     const Vector3d on_max(2.0 * std::cos(1.0), 2.0 * std::sin(1.0), 0.5);
     const Vector3d on_min(3.0 * std::cos(-1.0), 3.0 * std::sin(-1.0), 0.5);
     const std::vector<float> ranges = project(p, makeCloud({ on_max, on_min }), identity);
@@ -306,9 +306,9 @@ TEST(Projector, PointExactlyOnAngleMaxStaysInBounds)
   }
   {
     dfsc::Parameters p;  // limits that are not a whole number of increments apart
-    p.angle_min = 0.0;
-    p.angle_max = 1.0;
-    p.angle_increment = 0.3;
+    p.scan.angle_min = 0.0;
+    p.scan.angle_max = 1.0;
+    p.scan.angle_increment = 0.3;
     const std::vector<float> ranges = project(
       p, makeCloud({ Vector3d(std::cos(1.0), std::sin(1.0), 0.5), Vector3d(std::cos(1.2), std::sin(1.2), 0.5) }),
       identity);
@@ -334,10 +334,10 @@ TEST(Projector, NanAndInfPointsAreSkipped)
   EXPECT_EQ(countFinite(ranges), 1u);
   EXPECT_FLOAT_EQ(ranges[binOf(p, M_PI / 4)], static_cast<float>(std::sqrt(2.0)));
   // With every limit open, infinite points must still not slip through.
-  p.min_height = -kInf;
-  p.max_height = kInf;
-  p.range_max = kInf;
-  p.hole_detection = true;
+  p.band.min_height = -kInf;
+  p.band.max_height = kInf;
+  p.scan.range_max = kInf;
+  p.band.hole_detection = true;
   ranges = project(p, cloud, cameraMount(1.0, 0.3));
   EXPECT_EQ(countFinite(ranges), 1u);
   for (float r : ranges)
@@ -351,7 +351,7 @@ TEST(Projector, EmptyCloudGivesAllNoReturn)
   {
     const TestCloud cloud = makeCloud<float>({}, wh.first, wh.second);
     const std::vector<float> ranges = project(p, cloud, cameraMount(1.0, 0.0));
-    ASSERT_EQ(ranges.size(), p.beamCount());
+    ASSERT_EQ(ranges.size(), p.scan.beamCount());
     EXPECT_EQ(countFinite(ranges), 0u);
   }
 }
@@ -423,12 +423,12 @@ TEST(Projector, RowAndColumnStridesSkipPoints)
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
   dfsc::Parameters p;
   EXPECT_EQ(countFinite(project(p, cloud, identity)), 2u);
-  p.row_stride = 2;
-  p.column_stride = 3;
+  p.input.row_stride = 2;
+  p.input.column_stride = 3;
   const std::vector<float> ranges = project(p, cloud, identity);
   EXPECT_EQ(countFinite(ranges), 1u);
   EXPECT_FLOAT_EQ(ranges[binOf(p, M_PI / 2)], 2.0f);
-  p.column_stride = 2;
+  p.input.column_stride = 2;
   EXPECT_EQ(countFinite(project(p, cloud, identity)), 0u);
 
   // On a rendered scene, strides agree with the reference that applies the same strides.
@@ -437,8 +437,8 @@ TEST(Projector, RowAndColumnStridesSkipPoints)
   scene.boxes.push_back({ Vector3d(1.0, -0.3, 0.0), Vector3d(1.3, 0.3, 0.3) });
   const Eigen::Isometry3d cam = cameraMount(0.7, 25 * kDeg);
   const TestCloud big = makeCloud<float>(render(scene, cam, 160, 120), 160, 120);
-  p.row_stride = 3;
-  p.column_stride = 2;
+  p.input.row_stride = 3;
+  p.input.column_stride = 2;
   std::vector<float> ref;
   dfsc::referenceProject(p, big.view(), cam, ref);
   const std::vector<float> fast = project(p, big, cam);
@@ -449,9 +449,9 @@ TEST(Projector, RowAndColumnStridesSkipPoints)
 TEST(Projector, UseInfFalseWritesRangeMaxPlusEpsilon)
 {
   dfsc::Parameters p;
-  p.use_inf = false;
-  p.range_max = 6.0;
-  p.inf_epsilon = 0.5;
+  p.scan.use_inf = false;
+  p.scan.range_max = 6.0;
+  p.scan.inf_epsilon = 0.5;
   const std::vector<float> ranges = project(p, makeCloud({ Vector3d(1.0, 0.0, 0.5) }), Eigen::Isometry3d::Identity());
   EXPECT_FLOAT_EQ(ranges[binOf(p, 0.0)], 1.0f);
   for (std::size_t i = 0; i < ranges.size(); ++i)
@@ -466,8 +466,8 @@ TEST(Projector, UseInfFalseWritesRangeMaxPlusEpsilon)
 TEST(Projector, RangeLimitsArePlanarDistances)
 {
   dfsc::Parameters p;
-  p.range_min = 1.0;
-  p.range_max = 3.0;
+  p.scan.range_min = 1.0;
+  p.scan.range_max = 3.0;
   const Points pts = { Vector3d(0.9, 0.0, 0.5), Vector3d(0.0, 1.1, 0.9), Vector3d(-3.1, 0.0, 0.5),
                        Vector3d(0.0, -2.9, 0.1) };
   const std::vector<float> ranges = project(p, makeCloud(pts), Eigen::Isometry3d::Identity());
@@ -483,14 +483,14 @@ TEST(Projector, RangeLimitsArePlanarDistances)
 TEST(Projector, TooCloseIsNegativeInfinityOrRangeMinNeverNoReturn)
 {
   dfsc::Parameters p;
-  p.range_min = 0.3;
+  p.scan.range_min = 0.3;
   // Beam at 0: the person's legs at 0.2 m and the wall behind at 2 m; beam at 1 rad: the wall only.
   const Points pts = { Vector3d(0.2, 0.0, 0.5), Vector3d(2.0, 0.0, 0.5),
                        Vector3d(2.0 * std::cos(1.0), 2.0 * std::sin(1.0), 0.5) };
   const TestCloud cloud = makeCloud(pts);
   for (bool at_range_min : { false, true })
   {
-    p.too_close_at_range_min = at_range_min;
+    p.scan.too_close_at_range_min = at_range_min;
     const std::vector<float> ranges = project(p, cloud, Eigen::Isometry3d::Identity());
     std::vector<float> ref;
     dfsc::referenceProject(p, cloud.view(), Eigen::Isometry3d::Identity(), ref);
@@ -505,7 +505,7 @@ TEST(Projector, TooCloseIsNegativeInfinityOrRangeMinNeverNoReturn)
     EXPECT_EQ(kept.size(), 9u);
   }
   // A point outside the band is no obstacle, however close.
-  p.too_close_at_range_min = false;
+  p.scan.too_close_at_range_min = false;
   const std::vector<float> ranges = project(p, makeCloud({ Vector3d(0.2, 0.0, 1.5) }), Eigen::Isometry3d::Identity());
   EXPECT_EQ(ranges[binOf(p, 0.0)], std::numeric_limits<float>::infinity());
 }
@@ -554,11 +554,11 @@ TEST(Projector, BuffersReusedAcrossCallsDoNotLeak)
   proj.project(makeCloud({ Vector3d(0.0, 1.0, 0.5) }).view(), Eigen::Isometry3d::Identity(), ranges);
   EXPECT_EQ(countFinite(ranges), 1u);
   EXPECT_FLOAT_EQ(ranges[binOf(p, M_PI / 2)], 1.0f);
-  p.angle_min = -1.0;
-  p.angle_max = 1.0;
+  p.scan.angle_min = -1.0;
+  p.scan.angle_max = 1.0;
   proj.setParameters(p);
   proj.project(makeCloud({ Vector3d(0.0, 1.0, 0.5) }).view(), Eigen::Isometry3d::Identity(), ranges);
-  EXPECT_EQ(ranges.size(), p.beamCount());
+  EXPECT_EQ(ranges.size(), p.scan.beamCount());
   EXPECT_EQ(countFinite(ranges), 0u);
 }
 
@@ -575,13 +575,13 @@ TEST(Projector, AgreesWithTheReferenceOnRandomMounts)
     for (int i = 0; i < 3000; ++i)
       pts.push_back(Vector3d(3 * u(rng), 3 * u(rng), 0.5 + 3 * (u(rng) + 1)));
     dfsc::Parameters p;
-    p.floor_height = 0.2 * u(rng);
-    p.hole_detection = trial % 2 == 0;
-    p.angle_min = -2.5 + 0.5 * u(rng);
-    p.angle_max = 2.0 + 0.5 * u(rng);
-    p.angle_increment = 0.01 + 0.005 * u(rng);
-    p.range_min = 0.2;
-    p.range_max = 4.0;
+    p.band.floor_height = 0.2 * u(rng);
+    p.band.hole_detection = trial % 2 == 0;
+    p.scan.angle_min = -2.5 + 0.5 * u(rng);
+    p.scan.angle_max = 2.0 + 0.5 * u(rng);
+    p.scan.angle_increment = 0.01 + 0.005 * u(rng);
+    p.scan.range_min = 0.2;
+    p.scan.range_max = 4.0;
     const TestCloud cloud = makeCloud(pts);
     std::vector<float> ref;
     dfsc::referenceProject(p, cloud.view(), cam, ref);
@@ -679,7 +679,7 @@ Points noisyBeamPoints(const dfsc::Parameters& p, std::size_t beam, int count, d
   Points pts;
   for (int i = 0; i < count; ++i)
   {
-    const double a = p.angle_min + (static_cast<double>(beam) + jitter(rng)) * p.angle_increment;
+    const double a = p.scan.angle_min + (static_cast<double>(beam) + jitter(rng)) * p.scan.angle_increment;
     const double r = range + noise(rng);
     pts.emplace_back(r * std::cos(a), r * std::sin(a), 0.5);
   }
@@ -689,15 +689,15 @@ Points noisyBeamPoints(const dfsc::Parameters& p, std::size_t beam, int count, d
 dfsc::Parameters simCameraNoise()
 {
   dfsc::Parameters p;  // the simulated depth camera: std 1 mm + 1 mm per m^2 (2.6 cm at 5 m)
-  p.range_noise_std = 0.001;
-  p.range_noise_std_per_m2 = 0.001;
+  p.noise.range_noise_std = 0.001;
+  p.noise.range_noise_std_per_m2 = 0.001;
   return p;
 }
 
 TEST(RangeNoise, NoisyWallReadsItsRangeNotItsClosestPoint)
 {
   const dfsc::Parameters p = simCameraNoise();
-  const double wall = 5.0, std = p.rangeNoiseStd(wall);
+  const double wall = 5.0, std = p.noise.rangeNoiseStd(wall);
   std::mt19937 rng(7);
   Points pts;
   const std::size_t first = 700, beams = 40;  // 300 points per 0.25-degree beam, as the camera gives
@@ -709,7 +709,7 @@ TEST(RangeNoise, NoisyWallReadsItsRangeNotItsClosestPoint)
   const TestCloud cloud = makeCloud(pts);
   const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
   dfsc::Parameters exact = p;
-  exact.range_noise_std = exact.range_noise_std_per_m2 = 0.0;
+  exact.noise.range_noise_std = exact.noise.range_noise_std_per_m2 = 0.0;
   const std::vector<float> closest = project(exact, cloud, identity);
   const std::vector<float> clustered = project(p, cloud, identity);
   std::vector<float> reference;
@@ -735,15 +735,15 @@ TEST(RangeNoise, ObstacleInFrontOfAWallStaysAtItsRange)
   std::mt19937 rng(11);
   const std::size_t beam = 720;
   // A chair leg at 3 m (20 noisy points) in front of a wall at 3.5 m (300 points).
-  Points pts = noisyBeamPoints(p, beam, 300, 3.5, p.rangeNoiseStd(3.5), rng);
-  const Points leg = noisyBeamPoints(p, beam, 20, 3.0, p.rangeNoiseStd(3.0), rng);
+  Points pts = noisyBeamPoints(p, beam, 300, 3.5, p.noise.rangeNoiseStd(3.5), rng);
+  const Points leg = noisyBeamPoints(p, beam, 20, 3.0, p.noise.rangeNoiseStd(3.0), rng);
   pts.insert(pts.end(), leg.begin(), leg.end());
   const std::vector<float> ranges = project(p, makeCloud(pts), Eigen::Isometry3d::Identity());
-  EXPECT_NEAR(ranges[beam], 3.0, p.rangeNoiseStd(3.0));
+  EXPECT_NEAR(ranges[beam], 3.0, p.noise.rangeNoiseStd(3.0));
 
   // A single exact point at 2 m, 4 std in front of a dense exact surface: both are one cluster
   // (within 6 std), and the cap keeps the beam within 3 std of the point.
-  const double near = 2.0, std = p.rangeNoiseStd(near);
+  const double near = 2.0, std = p.noise.rangeNoiseStd(near);
   Points close_pair = noisyBeamPoints(p, beam, 300, near + 4.0 * std, 1e-9, rng);
   close_pair.emplace_back(near * std::cos(0.0), 0.0, 0.5);
   const std::vector<float> capped = project(p, makeCloud(close_pair), Eigen::Isometry3d::Identity());
@@ -753,8 +753,8 @@ TEST(RangeNoise, ObstacleInFrontOfAWallStaysAtItsRange)
 TEST(RangeNoise, HolesTooCloseAndNoReturnKeepTheirMeaning)
 {
   dfsc::Parameters p = simCameraNoise();
-  p.hole_detection = true;
-  p.range_min = 0.3;
+  p.band.hole_detection = true;
+  p.scan.range_min = 0.3;
   const Eigen::Isometry3d cam = cameraMount(1.0, 30 * kDeg);
   const Vector3d hole(2.0, 0.3, -0.3);
   const Vector3d too_close(0.2, -0.1, 0.5);  // 0.22 m < range_min
@@ -775,15 +775,15 @@ TEST(RangeNoise, BadNoiseParametersAreNamed)
                                      { "range_noise_std_per_m2", std::numeric_limits<double>::infinity() } })
   {
     dfsc::Parameters p;
-    (name == "range_noise_std" ? p.range_noise_std : p.range_noise_std_per_m2) = value;
+    (name == "range_noise_std" ? p.noise.range_noise_std : p.noise.range_noise_std_per_m2) = value;
     try
     {
       p.validate();
       ADD_FAILURE() << name << " = " << value << " accepted";
     }
-    catch (const std::invalid_argument& e)
+    catch (const dfsc::ParameterError& e)
     {
-      EXPECT_NE(std::string(e.what()).find("'" + name + "'"), std::string::npos) << e.what();
+      EXPECT_EQ(e.parameter(), name) << e.what();
     }
   }
 }

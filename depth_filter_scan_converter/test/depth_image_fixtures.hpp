@@ -70,26 +70,17 @@ inline DepthFrame depthFrame(const Points& pts, std::uint32_t width, std::uint32
   return f;
 }
 
-inline CameraModel modelOf(const sensor_msgs::CameraInfo& info)
+/// The frame's view through the core's checks, as the nodelet makes it: "" or why it is unusable.
+inline std::string makeFrameView(const DepthFrame& f, bool rectified, DepthImageView& v)
 {
-  CameraModel m;
-  m.width = info.width;
-  m.height = info.height;
-  std::copy(info.K.begin(), info.K.end(), m.K);
-  std::copy(info.P.begin(), info.P.end(), m.P);
-  return m;
-}
-
-inline ImageLayout layoutOf(const sensor_msgs::Image& image)
-{
-  return { image.width, image.height, image.step, image.encoding, image.is_bigendian != 0 };
+  return makeDepthImageView(imageLayoutOf(*f.image), f.image->data.data(), f.image->data.size(), cameraModelOf(*f.info),
+                            rectified, v);
 }
 
 inline DepthImageView imageView(const DepthFrame& f, bool rectified = true)
 {
   DepthImageView v;
-  const std::string reason =
-    makeDepthImageView(layoutOf(*f.image), f.image->data.data(), f.image->data.size(), modelOf(*f.info), rectified, v);
+  const std::string reason = makeFrameView(f, rectified, v);
   if (!reason.empty())
     throw std::runtime_error(reason);
   return v;
@@ -117,16 +108,8 @@ inline sensor_msgs::PointCloud2Ptr pointCloudXyz(const DepthFrame& f)
 
 inline CloudView cloudView(const sensor_msgs::PointCloud2& cloud)
 {
-  CloudLayout layout;
-  layout.width = cloud.width;
-  layout.height = cloud.height;
-  layout.point_step = cloud.point_step;
-  layout.row_step = cloud.row_step;
-  layout.is_bigendian = cloud.is_bigendian;
-  for (const auto& field : cloud.fields)
-    layout.fields.push_back({ field.name, field.offset, field.datatype, field.count });
   CloudView v;
-  const std::string reason = makeCloudView(layout, cloud.data.data(), cloud.data.size(), "", v);
+  const std::string reason = makeCloudView(cloudLayoutOf(cloud), cloud.data.data(), cloud.data.size(), "", v);
   if (!reason.empty())
     throw std::runtime_error(reason);
   return v;

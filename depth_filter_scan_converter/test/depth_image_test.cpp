@@ -58,8 +58,7 @@ BothPaths bothPaths(const dfsc::Parameters& p, const DepthFrame& frame, const Ei
 std::string reasonOf(const DepthFrame& f, bool rectified = true)
 {
   dfsc::DepthImageView v;
-  return dfsc::makeDepthImageView(layoutOf(*f.image), f.image->data.data(), f.image->data.size(), modelOf(*f.info),
-                                  rectified, v);
+  return makeFrameView(f, rectified, v);
 }
 
 DepthFrame smallFrame(const std::string& encoding)
@@ -138,14 +137,14 @@ TEST_P(RoomFrames, SameScanAsPointCloudXyzAndTheCloudCore)
   Eigen::Isometry3d mount;
   const DepthFrame frame = roomFrame(320, 163, GetParam(), mount);
   std::vector<dfsc::Parameters> options(5);
-  options[1].row_stride = 2;
-  options[1].column_stride = 3;
-  options[2].hole_detection = true;
-  options[2].floor_height = 0.1;  // the "floor" 10 cm up: the real floor is a hole
-  options[3].range_min = 1.5;     // the table and chair are too close
-  options[4].angle_min = -0.3;
-  options[4].angle_max = 0.5;
-  options[4].angle_increment = 0.002;
+  options[1].input.row_stride = 2;
+  options[1].input.column_stride = 3;
+  options[2].band.hole_detection = true;
+  options[2].band.floor_height = 0.1;  // the "floor" 10 cm up: the real floor is a hole
+  options[3].scan.range_min = 1.5;     // the table and chair are too close
+  options[4].scan.angle_min = -0.3;
+  options[4].scan.angle_max = 0.5;
+  options[4].scan.angle_increment = 0.002;
   for (std::size_t i = 0; i < options.size(); ++i)
   {
     const BothPaths r = bothPaths(options[i], frame, mount);
@@ -180,9 +179,9 @@ TEST(DepthImage, ZeroAndNaNDepthsAreNoReturn)
   const float inf = kInfF;
   std::memcpy(f.image->data.data() + 4 * 11, &inf, 4);
   dfsc::Parameters everything;  // every point is an obstacle: kept points count the valid pixels
-  everything.min_height = -std::numeric_limits<double>::infinity();
-  everything.max_height = std::numeric_limits<double>::infinity();
-  everything.range_max = std::numeric_limits<double>::infinity();
+  everything.band.min_height = -std::numeric_limits<double>::infinity();
+  everything.band.max_height = std::numeric_limits<double>::infinity();
+  everything.scan.range_max = std::numeric_limits<double>::infinity();
   std::vector<float> ranges, kept;
   dfsc::Projector projector(everything);
   projector.project(imageView(f), mount, ranges, nullptr, &kept);
@@ -233,9 +232,9 @@ TEST_P(FivePeopleDepth, SameScanAsPointCloudXyzAndCloseToTheRecording)
     EXPECT_GT(finiteBeams(r.image), 50u);
     EXPECT_EQ(differences(r.image, r.cloud), 0u);
     EXPECT_EQ(r.image_kept.size(), r.cloud_kept.size());
-    p.column_stride = 2;
-    p.row_stride = 2;
-    p.hole_detection = true;
+    p.input.column_stride = 2;
+    p.input.row_stride = 2;
+    p.band.hole_detection = true;
     const BothPaths s = bothPaths(p, frame, mount);
     EXPECT_EQ(differences(s.image, s.cloud), 0u);
   }

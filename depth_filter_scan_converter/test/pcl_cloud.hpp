@@ -37,27 +37,6 @@ struct PcdCloud
   std::vector<std::uint8_t> data;
 };
 
-/// The PointCloud2-style header of a PCL cloud (no checks here: makeCloudView does them).
-inline CloudLayout layoutOf(const pcl::PCLPointCloud2& cloud)
-{
-  CloudLayout layout;
-  layout.width = cloud.width;
-  layout.height = cloud.height;
-  layout.point_step = cloud.point_step;
-  layout.row_step = cloud.row_step;
-  layout.is_bigendian = cloud.is_bigendian != 0;
-  for (const pcl::PCLPointField& f : cloud.fields)
-  {
-    FieldDescription d;
-    d.name = f.name;
-    d.offset = f.offset;
-    d.datatype = f.datatype;
-    d.count = f.count;
-    layout.fields.push_back(d);
-  }
-  return layout;
-}
-
 /// Loads a PCD file (any DATA mode PCL reads); throws naming the file when PCL cannot.
 inline PcdCloud readPcd(const std::string& path)
 {
@@ -65,7 +44,7 @@ inline PcdCloud readPcd(const std::string& path)
   if (pcl::io::loadPCDFile(path, cloud) < 0)
     throw std::runtime_error("PCL cannot read " + path);
   PcdCloud out;
-  out.layout = layoutOf(cloud);
+  out.layout = cloudLayoutOf(cloud);
   out.data = std::move(cloud.data);  // the interleaved bytes as PCL laid them out, no copy
   return out;
 }

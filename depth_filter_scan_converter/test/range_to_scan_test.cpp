@@ -47,9 +47,9 @@ void expectParameterError(const dfsc::RangeScanParameters& p, const std::string&
     p.validate();
     ADD_FAILURE() << "accepted a bad '" << name << "'";
   }
-  catch (const std::invalid_argument& e)
+  catch (const dfsc::ParameterError& e)
   {
-    EXPECT_NE(std::string(e.what()).find("'" + name + "'"), std::string::npos) << e.what();
+    EXPECT_EQ(e.parameter(), name) << e.what();
   }
 }
 }  // namespace
@@ -84,7 +84,7 @@ TEST(RangeScanParameters, BadValuesNameTheParameter)
   dfsc::RangeScanParameters p;
   p.min_consecutive_readings = 0;
   expectParameterError(p, "min_consecutive_readings");
-  EXPECT_THROW(dfsc::RangeToScan{ p }, std::invalid_argument);
+  EXPECT_THROW(dfsc::RangeToScan{ p }, dfsc::ParameterError);
 }
 
 TEST(RangeToScan, ArcGeometryFollowsTheFencepostRule)

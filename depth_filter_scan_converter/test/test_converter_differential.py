@@ -224,9 +224,9 @@ def test_parameters_validate_names_the_parameter():
     p = core.Parameters()
     p.validate()
     p.min_height = 2.0
-    with pytest.raises(ValueError, match="'min_height'"):
+    with pytest.raises(core.ParameterError, match="^min_height: "):
         p.validate()
-    with pytest.raises(ValueError, match="'min_height'"):
+    with pytest.raises(ValueError, match="^min_height: "):
         core.Projector(p)
 
 

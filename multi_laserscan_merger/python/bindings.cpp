@@ -110,7 +110,7 @@ Eigen::Quaterniond quatFromXyzw(const Eigen::Vector4d& q)
 PYBIND11_MODULE(multi_laserscan_merger_core, m)
 {
   m.doc() = "ROS-free core of multi_laserscan_merger (times in seconds, angles in radians, ranges in metres)";
-  py::register_exception<ParameterError>(m, "ParameterError", PyExc_ValueError);
+  py::register_local_exception<ParameterError>(m, "ParameterError", PyExc_ValueError);
 
   m.def("fast_atan2", &fastAtan2, py::arg("y"), py::arg("x"));
   m.def(

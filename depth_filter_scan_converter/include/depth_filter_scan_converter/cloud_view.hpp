@@ -62,6 +62,23 @@ struct CloudLayout
   std::vector<FieldDescription> fields;
 };
 
+/// The layout of a PointCloud2-like message (sensor_msgs::PointCloud2, pcl::PCLPointCloud2: the
+/// same field names and datatype codes); no checks here, makeCloudView does them. A template:
+/// the core stays free of ROS and PCL.
+template <class Cloud>
+CloudLayout cloudLayoutOf(const Cloud& cloud)
+{
+  CloudLayout layout;
+  layout.width = cloud.width;
+  layout.height = cloud.height;
+  layout.point_step = cloud.point_step;
+  layout.row_step = cloud.row_step;
+  layout.is_bigendian = cloud.is_bigendian != 0;
+  for (const auto& f : cloud.fields)
+    layout.fields.push_back({ f.name, f.offset, static_cast<std::uint8_t>(f.datatype), f.count });
+  return layout;
+}
+
 /// Checks the layout against the buffer and fills `view`.
 /// Returns an empty string when the cloud is usable, else the reason it is not.
 /// A missing or unusable `intensity_field` is not an error: view.has_intensity stays false

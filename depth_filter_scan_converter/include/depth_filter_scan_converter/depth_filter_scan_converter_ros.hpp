@@ -26,6 +26,7 @@
 
 #include "depth_filter_scan_converter/DepthFilterScanConverterConfig.h"
 #include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/converter_glue.hpp"
 #include "depth_filter_scan_converter/depth_image_view.hpp"
 #include "depth_filter_scan_converter/parameters.hpp"
 #include "depth_filter_scan_converter/projector.hpp"
@@ -33,7 +34,7 @@
 namespace depth_filter_scan_converter
 {
 /// Reads every parameter from the private namespace (defaults from Parameters) and validates.
-/// Throws std::invalid_argument naming the parameter that is wrong (type or value).
+/// Throws laserscan_common::ParameterError naming the parameter that is wrong (type or value).
 Parameters loadParameters(const ros::NodeHandle& private_nh);
 
 /// What the converter reads: a PointCloud2 on cloud_in, or a depth image on image with its
@@ -48,7 +49,7 @@ class DepthFilterScanConverter
 {
 public:
   /// Topics (cloud_in or image + camera_info, scan, filtered_cloud) live in nh; parameters in
-  /// private_nh. Throws std::invalid_argument (naming the parameter) on a bad configuration.
+  /// private_nh. Throws laserscan_common::ParameterError on a bad configuration.
   DepthFilterScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh, DepthInput input = DepthInput::Cloud);
   ~DepthFilterScanConverter();
 
@@ -73,7 +74,9 @@ private:
     CameraInfo::ConstPtr info;
   };
 
-  void connectCallback();
+  /// The lazy subscription's actions (its lock held).
+  void subscribeInput();
+  void unsubscribeInput();
   /// Feeds /tf and /tf_static into tf_buffer_ instead of tf2_ros::TransformListener, which lets
   /// a stamp near 2^32 s abort the process (tf2 adds its cache length to it) and stores
   /// transforms with an infinite translation (tf2 refuses only NaN).
@@ -107,15 +110,12 @@ private:
   std::string headerProblem(const std_msgs::Header& header);
   /// Counts a malformed message and warns, throttled per kind of defect.
   void dropMalformed(const std::string& reason, const std::string& frame_id);
-  /// Throttling per converter (ROS_WARN_THROTTLE keeps one timer per call site, shared by every
-  /// converter in a manager: one camera's trouble would hide another's).
-  static bool due(ros::WallTime& last, double period = 5.0);
 
   ros::NodeHandle nh_, private_nh_;
   const DepthInput input_;
   std::string input_topic_;  // resolved, for messages
   Parameters params_;
-  int queue_size_ = 10;
+  int queue_size_;
 
   tf2_ros::Buffer tf_buffer_;
   ros::Subscriber tf_sub_, tf_static_sub_;
@@ -128,8 +128,7 @@ private:
   std::unique_ptr<ImageSync> image_sync_;
   std::unique_ptr<tf2_ros::MessageFilter<Image>> image_filter_;
   ros::Publisher scan_pub_, cloud_pub_;
-  std::mutex connect_mutex_;  // taken before advertise: the connect callback may fire during it
-  bool subscribed_ = false;
+  LazySubscription lazy_;
 
   std::mutex mutex_;  // projector, parameters, statistics
   Projector projector_;
@@ -139,19 +138,19 @@ private:
   std::unique_ptr<dynamic_reconfigure::Server<Config>> reconfigure_server_;
   bool first_reconfigure_ = true;
 
-  diagnostic_updater::Updater updater_;
-  ros::Timer diagnostics_timer_;
   // Statistics since start and since the last diagnostics update.
   std::uint64_t received_ = 0, published_ = 0, tf_failures_ = 0, malformed_ = 0, stale_ = 0, without_info_ = 0;
-  std::uint64_t received_at_last_report_ = 0, malformed_at_last_report_ = 0, tf_failures_at_last_report_ = 0,
-                stale_at_last_report_ = 0, without_info_at_last_report_ = 0;
-  ros::WallTime last_report_;
+  std::uint64_t malformed_at_last_report_ = 0, tf_failures_at_last_report_ = 0, stale_at_last_report_ = 0,
+                without_info_at_last_report_ = 0;
+  RateMeter rate_;
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0;
   std::string last_malformed_reason_, last_tf_reason_;
   bool warned_slash_ = false;
   std::mutex tf_warning_mutex_;  // tf callbacks may run beside processing (multi-threaded manager)
   std::map<std::string, ros::WallTime> warned_transforms_;  // per parent -> child pair
-  ros::WallTime warned_tf_, warned_late_, warned_malformed_, warned_intensity_, warned_info_;
+  ros::WallTime warned_tf_, warned_late_, warned_intensity_, warned_info_;
+  WarningThrottle warn_malformed_;
+  ConverterDiagnostics diagnostics_;  // last: its timer may call diagnose() as soon as it exists
 };
 
 }  // namespace depth_filter_scan_converter

@@ -1,6 +1,7 @@
 // Zero-copy view over a depth image (sensor_msgs/Image + CameraInfo), ROS-free.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -53,6 +54,26 @@ struct CameraModel
   double K[9] = {};   ///< row-major 3x3 camera matrix (raw image)
   double P[12] = {};  ///< row-major 3x4 projection matrix (rectified image)
 };
+
+/// The layout of an image message (sensor_msgs::Image or anything with its field names); no
+/// checks here, makeDepthImageView does them. A template: the core stays free of ROS.
+template <class Image>
+ImageLayout imageLayoutOf(const Image& image)
+{
+  return { image.width, image.height, image.step, image.encoding, image.is_bigendian != 0 };
+}
+
+/// The camera model of a camera info message (sensor_msgs::CameraInfo or alike).
+template <class CameraInfo>
+CameraModel cameraModelOf(const CameraInfo& info)
+{
+  CameraModel model;
+  model.width = info.width;
+  model.height = info.height;
+  std::copy(info.K.begin(), info.K.end(), model.K);
+  std::copy(info.P.begin(), info.P.end(), model.P);
+  return model;
+}
 
 /// Intrinsics of `model`: from P for a rectified image (as depth_image_proc does), else from K.
 /// Returns "" or the reason they are unusable (focal lengths not finite and > 0, centre not finite).

@@ -35,10 +35,10 @@ namespace depth_filter_scan_converter
 class Projector
 {
 public:
-  /// Throws std::invalid_argument (naming the parameter) if params are invalid.
+  /// Throws ParameterError (naming the parameter) if params are invalid.
   explicit Projector(const Parameters& params = Parameters());
 
-  /// Throws std::invalid_argument and keeps the old parameters if params are invalid.
+  /// Throws ParameterError and keeps the old parameters if params are invalid.
   void setParameters(const Parameters& params);
   const Parameters& parameters() const { return params_; }
 

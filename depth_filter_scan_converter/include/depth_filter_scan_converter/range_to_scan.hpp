@@ -13,8 +13,12 @@
 #include <string>
 #include <vector>
 
+#include "laserscan_common/parameter_error.hpp"
+
 namespace depth_filter_scan_converter
 {
+using laserscan_common::ParameterError;
+
 /// Every tunable of the range converter, with its default, in one place (metres, radians).
 struct RangeScanParameters
 {
@@ -23,7 +27,7 @@ struct RangeScanParameters
   double angle_increment = 0.004363323;  ///< largest beam spacing (pi/720, the merger's default)
   int min_consecutive_readings = 1;      ///< in-range readings in a row before one is an obstacle
 
-  /// Throws std::invalid_argument naming the first bad parameter and why.
+  /// Throws ParameterError naming the first bad parameter and why.
   void validate() const;
 };
 
@@ -76,7 +80,7 @@ std::string checkReading(const RangeReading& reading, const RangeScanParameters&
 class RangeToScan
 {
 public:
-  /// Validates the parameters (std::invalid_argument naming the bad one).
+  /// Validates the parameters (ParameterError naming the bad one).
   explicit RangeToScan(const RangeScanParameters& params);
 
   /// Fills `scan` and returns "" or, for a reading that cannot be converted, the reason (the

@@ -1,0 +1,121 @@
+// What the ROS classes of the package's converters (depth cloud or image, range) share: strict
+// parameter reading, throttled warnings, lazy subscription, diagnostics. Used by the package only.
+#pragma once
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <ros/ros.h>
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "laserscan_common/parameter_error.hpp"
+
+namespace depth_filter_scan_converter
+{
+/// Reads `name` into `value` if it is set; throws ParameterError naming the parameter and the
+/// expected `type` when it is set to something else (a value of the wrong type is an error, not
+/// a default).
+template <typename T>
+void readTypedParam(const ros::NodeHandle& nh, const std::string& name, T& value, const char* type)
+{
+  if (nh.hasParam(name) && !nh.getParam(name, value))
+    throw laserscan_common::ParameterError(name, std::string("must be of type ") + type);
+}
+
+/// How the nodes name a bad parameter in their log: "parameter '<name>': <reason>".
+inline std::string describe(const laserscan_common::ParameterError& e)
+{
+  return "parameter '" + e.parameter() + "': " + e.reason();
+}
+
+/// The private parameter queue_size (default 10, >= 1): depth of the input's queues.
+int readQueueSize(const ros::NodeHandle& private_nh);
+
+/// True when `period` s have passed since `last` (then `last` becomes now). Per converter:
+/// ROS_WARN_THROTTLE keeps one timer per call site, shared by every converter in a manager, so
+/// one sensor's trouble would hide another's.
+bool due(ros::WallTime& last, double period = 5.0);
+
+/// Throttles the warnings about one kind of fault: a new kind is reported at once, the same
+/// kind again at most every `period` s.
+class WarningThrottle
+{
+public:
+  explicit WarningThrottle(double period = 5.0) : period_(period) {}
+  bool due(const std::string& kind);
+
+private:
+  double period_;
+  std::string last_kind_;
+  ros::WallTime last_;
+};
+
+/// Subscribes to the input only while someone listens to an output. The mutex is taken before
+/// advertise: the connect callback may fire during it.
+class LazySubscription
+{
+public:
+  /// `subscribe` and `unsubscribe` run under the subscription's own lock.
+  LazySubscription(std::function<void()> subscribe, std::function<void()> unsubscribe);
+
+  /// Advertises an output whose listeners keep the input subscribed.
+  template <class M>
+  ros::Publisher advertise(ros::NodeHandle& nh, const std::string& topic, std::uint32_t queue_size)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const ros::SubscriberStatusCallback connect = [this](const ros::SingleSubscriberPublisher&) { update(); };
+    publishers_.push_back(nh.advertise<M>(topic, queue_size, connect, connect));
+    return publishers_.back();
+  }
+
+  /// Unsubscribes for good (call first in the owner's destructor: no callback may reach a
+  /// half-destroyed object).
+  void shutdown();
+  bool subscribed() const { return subscribed_; }
+
+private:
+  void update();
+
+  std::function<void()> subscribe_, unsubscribe_;
+  std::mutex mutex_;
+  std::vector<ros::Publisher> publishers_;
+  std::atomic<bool> subscribed_{ false };
+  bool shut_down_ = false;
+};
+
+/// The diagnostics of one converter: one task, "Input and processing", updated every second,
+/// under the node's name as hardware ID (one converter per sensor).
+class ConverterDiagnostics
+{
+public:
+  ConverterDiagnostics(ros::NodeHandle nh, ros::NodeHandle private_nh,
+                       std::function<void(diagnostic_updater::DiagnosticStatusWrapper&)> task);
+  void stop() { timer_.stop(); }
+
+private:
+  diagnostic_updater::Updater updater_;
+  ros::Timer timer_;
+};
+
+/// Input messages per second between two diagnostics updates.
+class RateMeter
+{
+public:
+  /// The rate since the previous call (or construction), `received` counting since start.
+  double rate(std::uint64_t received);
+
+private:
+  std::uint64_t received_before_ = 0;
+  ros::WallTime before_ = ros::WallTime::now();
+};
+
+/// The summary of a converter's diagnostics: WARN with `problem` when there is one, WARN when
+/// subscribed but nothing arrives (`nothing_arrives`), else OK converting or idle.
+void summarize(diagnostic_updater::DiagnosticStatusWrapper& status, const std::string& problem, bool subscribed,
+               double rate, const std::string& nothing_arrives);
+
+}  // namespace depth_filter_scan_converter
