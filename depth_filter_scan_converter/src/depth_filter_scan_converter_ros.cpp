@@ -461,10 +461,10 @@ void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level
     config.floor_height = p.band.floor_height;
     config.min_height = p.band.min_height;
     config.max_height = p.band.max_height;
-    config.range_min = p.scan.range_min;
-    config.range_max = p.scan.range_max;
     config.hole_detection = p.band.hole_detection;
     config.hole_depth = p.band.hole_depth;
+    config.range_min = p.scan.range_min;
+    config.range_max = p.scan.range_max;
   };
   if (first_reconfigure_)
   {
@@ -475,13 +475,14 @@ void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level
     return;
   }
   Parameters p = params_;
+  // What dynamic_reconfigure tunes: the whole band and the scan's range limits.
   p.band.floor_height = config.floor_height;
   p.band.min_height = config.min_height;
   p.band.max_height = config.max_height;
-  p.scan.range_min = config.range_min;
-  p.scan.range_max = config.range_max;
   p.band.hole_detection = config.hole_detection;
   p.band.hole_depth = config.hole_depth;
+  p.scan.range_min = config.range_min;
+  p.scan.range_max = config.range_max;
   try
   {
     projector_.setParameters(p);  // validates
