@@ -24,13 +24,12 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(os.path.dirname(PKG), "scripts"))
 from laserscan_toolbox.camera_path_benchmark import cpu_seconds_between, thread_cpu_ns  # noqa: E402
-from measure_node_cost import FEED, free_port  # noqa: E402
+from measure_node_cost import FEED, node_binary, start_master  # noqa: E402
 
 # name -> (executable, extra private parameters)
 NODES = {
@@ -47,21 +46,11 @@ LABELS = {
 
 def run_once(kind, clouds, tmp):
     """CPU seconds of one node of `kind` over `clouds` clouds, and the scans it sent back."""
-    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % free_port(), ROS_HOME=tmp, ROS_LOG_DIR=tmp)
-    port = env["ROS_MASTER_URI"].rsplit(":", 1)[1]
-    core = subprocess.Popen(["roscore", "-p", port], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    env, core = start_master(tmp)
     node = feed = None
     try:
-        while subprocess.run(["rosparam", "list"], env=env, capture_output=True).returncode != 0:
-            time.sleep(0.3)
-        subprocess.run(["rosparam", "load", os.path.join(PKG, "config", "depth_filter_scan_converter.yaml"), "/conv"],
-                       env=env, check=True)
         executable, params = NODES[kind]
-        binary = subprocess.run(["catkin_find", "--libexec", "depth_filter_scan_converter", executable], env=env,
-                                capture_output=True, text=True).stdout.split()
-        if not binary:
-            raise RuntimeError("%s not found: build the package's tests first" % executable)
-        node = subprocess.Popen([binary[0], "__name:=conv"] + params, env=env, stdout=subprocess.DEVNULL,
+        node = subprocess.Popen([node_binary(env, executable), "__name:=conv"] + params, env=env, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL)
         flag = os.path.join(tmp, "go_%s" % kind)
         feed = subprocess.Popen([sys.executable, "-c", FEED, str(clouds), flag], env=env, stdout=subprocess.PIPE,

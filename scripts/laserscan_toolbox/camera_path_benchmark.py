@@ -174,11 +174,11 @@ def _feed_until(pub, done, rate, what, manager, workdir):
     return k
 
 
-def measure(path, pub, frames, rate, workdir, label, source="tcp"):
+def measure(path, pub, frames, rate, workdir, label, source="tcp", config=CONFIG):
     """One run of one path in a fresh manager, the frames from `source` ("tcp": published by `pub`;
     "manager": the stand-in nodelet, fed once by `pub`). Returns its figures."""
     import rosgraph
-    with open(CONFIG) as f:
+    with open(config) as f:
         params = yaml.safe_load(f)
     params["publish_filtered_cloud"] = False
     if path == "baseline":
@@ -245,7 +245,7 @@ def measure(path, pub, frames, rate, workdir, label, source="tcp"):
 
 
 def experiment(width=640, height=480, frames=150, rate=15.0, repeat=2, workdir=None, log=print,
-               sources=("manager", "tcp")):
+               sources=("manager", "tcp"), config=CONFIG):
     """{source: results} for each source of frames ("manager", "tcp"; see the module's doc)."""
     import tempfile
     workdir = workdir or tempfile.mkdtemp(prefix="camera_path_benchmark_")
@@ -260,7 +260,8 @@ def experiment(width=640, height=480, frames=150, rate=15.0, repeat=2, workdir=N
             try:
                 for r in range(repeat):
                     for path in SOURCES[source]:
-                        run = measure(path, pub, frames, rate, workdir, "%s_%s_%d" % (source, path, r), source)
+                        run = measure(path, pub, frames, rate, workdir, "%s_%s_%d" % (source, path, r), source,
+                                      config)
                         runs.append(run)
                         log("%s source, %s path, run %d: %d scans of %d frames, manager CPU %.3f ms per frame"
                             % (source, path, r + 1, run["scans"], run["frames"], run["cpu_ms_per_frame"]))
@@ -316,6 +317,9 @@ def main(argv=None):
     p.add_argument("--source", choices=("manager", "tcp", "both"), default="both",
                    help="where the frames come from: a replay nodelet in the manager (zero copy, as a camera "
                         "driver nodelet), this process over TCP (a driver in its own process), or both")
+    p.add_argument("--config", default=CONFIG,
+                   help="the converters' parameters (default: the simulated robot's left camera, with its range "
+                        "noise model)")
     try:
         a = p.parse_args(argv)
     except SystemExit as e:
@@ -327,7 +331,7 @@ def main(argv=None):
     try:
         results = experiment(a.width, a.height, a.frames, a.rate, a.repeat,
                              log=lambda m: print(m, file=sys.stderr),
-                             sources=("manager", "tcp") if a.source == "both" else (a.source,))
+                             sources=("manager", "tcp") if a.source == "both" else (a.source,), config=a.config)
     except RunError as e:
         print("camera_path_benchmark: %s" % e, file=sys.stderr)
         return 3
