@@ -80,11 +80,11 @@ class PerPointNode
 {
 public:
   PerPointNode(ros::NodeHandle& nh, const ScanSettings& s)
-    : s_(s)
-    , listener_(buffer_)
-    , cloud_sub_(nh, "cloud_in", s.queue_size)
-    , filter_(cloud_sub_, buffer_, s.frame, s.queue_size, nh)
-    , scan_pub_(nh.advertise<sensor_msgs::LaserScan>("scan", 10))
+    : s_(s),
+      listener_(buffer_),
+      cloud_sub_(nh, "cloud_in", s.queue_size),
+      filter_(cloud_sub_, buffer_, s.frame, s.queue_size, nh),
+      scan_pub_(nh.advertise<sensor_msgs::LaserScan>("scan", 10))
   {
     filter_.registerCallback(&PerPointNode::cloudIn, this);
   }
@@ -133,9 +133,9 @@ class TransportNode
 {
 public:
   TransportNode(ros::NodeHandle& nh, const ScanSettings& s)
-    : s_(s)
-    , cloud_sub_(nh.subscribe("cloud_in", s.queue_size, &TransportNode::cloudIn, this))
-    , scan_pub_(nh.advertise<sensor_msgs::LaserScan>("scan", 10))
+    : s_(s),
+      cloud_sub_(nh.subscribe("cloud_in", s.queue_size, &TransportNode::cloudIn, this)),
+      scan_pub_(nh.advertise<sensor_msgs::LaserScan>("scan", 10))
   {}
 
 private:
