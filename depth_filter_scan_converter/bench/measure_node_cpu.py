@@ -3,7 +3,10 @@
 algorithm, re-implemented: bench/per_point_reference_node.cpp), both above the same transport
 baseline (a node that receives each cloud and publishes one empty 1441-beam scan), issue 9 part 3.
 
-Each run starts one standalone node (shipped parameters, the same YAML for all three) on its own
+A fourth node, the converter reading one point per cloud (row and column strides beyond the
+cloud), shows what its glue (tf filter, tf, scan, diagnostics, threads) costs in CPU time.
+
+Each run starts one standalone node (shipped parameters, the same YAML for all) on its own
 roscore, then measure_node_cost.py's feeder publishes N organized 320 x 163 clouds (52,160
 points of 16 bytes) at 10 Hz over TCP; the node's CPU (sum over its threads of
 /proc/<pid>/task/*/schedstat, in ns) from the first cloud until a second after the last is
@@ -34,11 +37,13 @@ from measure_node_cost import FEED, node_binary, start_master  # noqa: E402
 # name -> (executable, extra private parameters)
 NODES = {
     "transport": ("per_point_reference_node", ["_mode:=transport"]),
+    "converter_glue": ("depth_filter_scan_converter_node", ["_row_stride:=1000000", "_column_stride:=1000000"]),
     "converter": ("depth_filter_scan_converter_node", []),
     "per_point": ("per_point_reference_node", ["_mode:=per_point"]),
 }
 LABELS = {
     "transport": "transport baseline: receive the cloud, publish an empty 1441-beam scan",
+    "converter_glue": "depth_filter_scan_converter_node reading one point per cloud (its glue)",
     "converter": "depth_filter_scan_converter_node",
     "per_point": "per-point node (pointcloud_to_laserscan's algorithm, re-implemented)",
 }
