@@ -1,8 +1,11 @@
-"""scripts/camera_path_benchmark: its figures, and one short real run of its three paths."""
+"""scripts/camera_path_benchmark: its figures, its CPU accounting, and one short real run of its
+three paths from both sources (the replay nodelet inside the manager, and TCP)."""
 import math
 import os
 import subprocess
 import sys
+import threading
+import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "scripts"))
@@ -18,6 +21,28 @@ def test_figures_are_medians_and_ratios():
     assert f["ratio"] == 8.0 / 3.0
     assert f["ratio_above_baseline"] == 6.0
     assert math.isnan(cpb.figures([{"path": "image", "cpu_ms_per_frame": 1.0}])["ratio"])
+    # The manager source's baseline is the replay nodelet alone.
+    f = cpb.figures([{"path": "source", "cpu_ms_per_frame": 0.5}, {"path": "image", "cpu_ms_per_frame": 1.0},
+                     {"path": "cloud", "cpu_ms_per_frame": 2.5}], cpb.MANAGER_PATHS)
+    assert f["baseline"] == 0.5 and f["ratio"] == 2.5 and f["ratio_above_baseline"] == 4.0
+
+
+def _burn(seconds):
+    start = time.thread_time()
+    while time.thread_time() - start < seconds:
+        pass
+
+
+def test_thread_cpu_counts_every_thread_and_one_started_in_between():
+    before = cpb.thread_cpu_ns(os.getpid())
+    _burn(0.1)
+    worker = threading.Event()
+    t = threading.Thread(target=lambda: (_burn(0.1), worker.set(), time.sleep(0.5)))
+    t.start()
+    worker.wait(30)
+    spent = cpb.cpu_seconds_between(before, cpb.thread_cpu_ns(os.getpid()))
+    t.join()
+    assert 0.2 <= spent < 0.2 + 5.0, spent  # both threads' 0.1 s each (plus this test's own bits)
 
 
 def test_rendered_frames_are_16uc1_millimetres():
@@ -34,6 +59,11 @@ def test_short_run_of_every_path_and_usage_errors():
     out = subprocess.run([exe, "--width", "64", "--height", "48", "--frames", "5", "--repeat", "1", "--rate", "10"],
                          capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-3000:]
-    for path in ("baseline", "image", "cloud"):
-        assert "%s path, run 1:" % path in out.stderr
-    assert "cloud path / image path" in out.stdout and "above the baseline" in out.stdout
+    for source, paths in cpb.SOURCES.items():
+        for path in paths:
+            line = [ln for ln in out.stderr.splitlines() if ln.startswith("%s source, %s path, run 1:" % (source, path))]
+            assert len(line) == 1, out.stderr[-3000:]
+            if path in ("image", "cloud"):
+                assert not line[0].split(":")[1].startswith(" 0 scans"), line  # the path converted frames
+    assert out.stdout.count("cloud path / image path") == 2 and "frames published inside the manager" in out.stdout
+    assert "replay nodelet alone" in out.stdout and "image path reading one pixel" in out.stdout

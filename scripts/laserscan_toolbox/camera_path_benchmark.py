@@ -1,6 +1,17 @@
 """CPU per depth frame of one camera's path to a scan, in one nodelet manager (issue 9).
 
-Two paths get the same 16UC1 depth frames (+ camera_info, rendered by the simulator):
+Two paths get the same 16UC1 depth frames (+ camera_info, rendered by the simulator), from one of
+two sources:
+
+- ``manager`` (default): the frames come from a camera stand-in inside the same manager
+  (depth_filter_scan_converter/DepthReplayNodelet: it records the rendered frames once, then
+  publishes them by shared pointer at the fixed rate, as a camera driver nodelet does), so both
+  paths get them zero-copy; the baseline ``source`` is the manager with the stand-in alone. Each
+  path's figure is CPU per frame published (counted on camera_info);
+- ``tcp``: the frames are published from this process over TCP (a camera driver in a process of
+  its own); the baseline is as described below, and figures are CPU per scan.
+
+The paths:
 
 - image: depth_filter_scan_converter/DepthImageScanConverterNodelet (depth image -> scan);
 - cloud: depth_image_proc/point_cloud_xyz + depth_filter_scan_converter/DepthFilterScanConverterNodelet
@@ -12,8 +23,9 @@ Two paths get the same 16UC1 depth frames (+ camera_info, rendered by the simula
 Each run starts a fresh manager (one worker thread) with one path, publishes the frames from
 this process at a fixed rate and measures the manager's CPU (user + system) over the frames,
 divided by the scans that came back (point_cloud_xyz's camera subscriber lets a few frames go
-unconverted; the scans per frame are reported). Both paths receive the same serialised frames,
-so the transport into the manager is in both figures; the ratio is cloud / image.
+unconverted; the scans per frame are reported). With ``tcp``, both paths receive the same
+serialised frames, so the transport into the manager is in both figures; the ratio is cloud / image.
+With ``manager``, the scans go to this process over TCP in both paths (a few us per scan).
 """
 
 import dataclasses
@@ -27,11 +39,13 @@ import yaml
 
 from .report import fmt, table
 from .rosrun import REPO, Master, RunError, stop_process
-from .transport_experiment import cpu_delta, cpu_snapshot
 
 PATHS = ("baseline", "image", "cloud")
+MANAGER_PATHS = ("source", "image", "cloud")
+SOURCES = {"manager": MANAGER_PATHS, "tcp": PATHS}
 CONFIG = os.path.join(REPO, "config", "sim_robot", "camera_left_converter.yaml")
 TOPIC = "/bench_camera/depth"
+RECORDED = "/bench_camera/recorded"  # what the stand-in records (source "manager")
 
 
 def render_frames(width, height, count, seed=0):
@@ -48,13 +62,15 @@ def render_frames(width, height, count, seed=0):
     return sc, cam, frames
 
 
-def figures(runs):
+def figures(runs, paths=PATHS):
     """runs: [{"path", "cpu_ms_per_frame"}] -> {path: median ms per frame}, "ratio" (cloud / image)
-    and "ratio_above_baseline" ((cloud - baseline) / (image - baseline))."""
+    and "ratio_above_baseline" ((cloud - baseline) / (image - baseline)), the baseline being
+    paths[0] (also under the key "baseline")."""
     out = {}
-    for path in PATHS:
+    for path in paths:
         v = [r["cpu_ms_per_frame"] for r in runs if r["path"] == path and np.isfinite(r["cpu_ms_per_frame"])]
         out[path] = float(np.median(v)) if v else float("nan")
+    out["baseline"] = out[paths[0]]
     out["ratio"] = out["cloud"] / out["image"] if out["image"] > 0 else float("nan")
     above = out["image"] - out["baseline"]
     out["ratio_above_baseline"] = (out["cloud"] - out["baseline"]) / above if above > 0 else float("nan")
@@ -62,9 +78,10 @@ def figures(runs):
 
 
 class _Frames:
-    """Publishes frames (image, camera_info, static tf) and counts the scans that come back."""
+    """Publishes frames (image, camera_info on `topic`, static tf) and counts the scans that come
+    back and, with count_frames, the camera_infos the manager publishes on TOPIC."""
 
-    def __init__(self, cam, frames):
+    def __init__(self, cam, frames, topic=TOPIC, count_frames=False):
         import rospy
         import tf2_ros
         from geometry_msgs.msg import TransformStamped
@@ -73,10 +90,12 @@ class _Frames:
         from .scenario import Scenario
         self.rospy, self.Image, self.CameraInfo, self.Scenario = rospy, Image, CameraInfo, Scenario
         self.cam, self.frames = cam, frames
-        self.image_pub = rospy.Publisher(TOPIC + "/image_rect", Image, queue_size=5)
-        self.info_pub = rospy.Publisher(TOPIC + "/camera_info", CameraInfo, queue_size=5)
-        self.scans = 0
+        self.image_pub = rospy.Publisher(topic + "/image_rect", Image, queue_size=5)
+        self.info_pub = rospy.Publisher(topic + "/camera_info", CameraInfo, queue_size=5)
+        self.scans = self.frames_out = 0
         self.scan_sub = rospy.Subscriber("/bench_camera/scan", LaserScan, self._on_scan, queue_size=50)
+        self.frame_sub = rospy.Subscriber(TOPIC + "/camera_info", CameraInfo, self._on_frame,
+                                          queue_size=50) if count_frames else None
         rot, pos = cam.optical_in_base(0.0)
         t = TransformStamped()
         t.header.stamp = rospy.Time.now()
@@ -89,6 +108,9 @@ class _Frames:
 
     def _on_scan(self, _msg):
         self.scans += 1
+
+    def _on_frame(self, _msg):
+        self.frames_out += 1
 
     def publish(self, k):
         depth, _ = self.frames[k % len(self.frames)]
@@ -103,8 +125,30 @@ class _Frames:
 
     def close(self):
         self.scan_sub.unregister()
+        if self.frame_sub:
+            self.frame_sub.unregister()
         self.image_pub.unregister()
         self.info_pub.unregister()
+
+
+def thread_cpu_ns(pid):
+    """{thread id: CPU ns} of a process's threads, from /proc/<pid>/task/*/schedstat: exact to the
+    nanosecond, where /proc/<pid>/stat counts in 10 ms ticks (too coarse for a few hundred ms of CPU
+    per run)."""
+    out = {}
+    for tid in os.listdir("/proc/%d/task" % pid):
+        try:
+            with open("/proc/%d/task/%s/schedstat" % (pid, tid)) as f:
+                out[tid] = int(f.read().split()[0])
+        except (OSError, ValueError, IndexError):
+            continue  # the thread ended meanwhile
+    return out
+
+
+def cpu_seconds_between(before, after):
+    """CPU seconds the threads spent between two thread_cpu_ns() snapshots (a thread started in
+    between counts whole; one that ended in between is lost, none does in a running manager)."""
+    return sum(ns - before.get(tid, 0) for tid, ns in after.items()) / 1e9
 
 
 def _start(cmd, log):
@@ -112,11 +156,29 @@ def _start(cmd, log):
         return subprocess.Popen(cmd, stdout=f, stderr=subprocess.STDOUT, start_new_session=True)
 
 
-def measure(path, pub, frames, rate, workdir, label):
-    """One run of one path in a fresh manager. Returns its figures."""
-    import psutil
+def _load(nodelet, name, remaps, workdir, label):
+    return _start(["rosrun", "nodelet", "nodelet", "load", nodelet, "/bench_manager", "__name:=" + name] + remaps,
+                  os.path.join(workdir, "%s_%s.log" % (label, name)))
+
+
+def _feed_until(pub, done, rate, what, manager, workdir):
+    """Publishes frames (from this process) until done() holds; k of the next frame."""
+    deadline = time.time() + 30.0
+    k = 0
+    while not done():
+        if time.time() > deadline or manager.poll() is not None:
+            raise RunError("%s (see %s)" % (what, workdir))
+        pub.publish(k)
+        k += 1
+        time.sleep(1.0 / rate)
+    return k
+
+
+def measure(path, pub, frames, rate, workdir, label, source="tcp", config=CONFIG):
+    """One run of one path in a fresh manager, the frames from `source` ("tcp": published by `pub`;
+    "manager": the stand-in nodelet, fed once by `pub`). Returns its figures."""
     import rosgraph
-    with open(CONFIG) as f:
+    with open(config) as f:
         params = yaml.safe_load(f)
     params["publish_filtered_cloud"] = False
     if path == "baseline":
@@ -127,84 +189,117 @@ def measure(path, pub, frames, rate, workdir, label):
         manager = _start(["rosrun", "nodelet", "nodelet", "manager", "__name:=bench_manager",
                           "_num_worker_threads:=1"], os.path.join(workdir, label + "_manager.log"))
         procs.append(manager)
-        kind = "DepthFilterScanConverterNodelet" if path == "cloud" else "DepthImageScanConverterNodelet"
-        procs.append(_start(["rosrun", "nodelet", "nodelet", "load", "depth_filter_scan_converter/" + kind,
-                             "/bench_manager", "__name:=bench_converter", "image:=" + TOPIC + "/image_rect",
-                             "camera_info:=" + TOPIC + "/camera_info", "cloud_in:=" + TOPIC + "/points",
-                             "scan:=/bench_camera/scan"], os.path.join(workdir, label + "_converter.log")))
+        if source == "manager":
+            rosgraph.Master("/camera_path_benchmark").setParam(
+                "/bench_replay", {"rate": float(rate), "frames": len(pub.frames)})
+            procs.append(_load("depth_filter_scan_converter/DepthReplayNodelet", "bench_replay",
+                               ["image_in:=" + RECORDED + "/image_rect", "camera_info_in:=" + RECORDED + "/camera_info",
+                                "image:=" + TOPIC + "/image_rect", "camera_info:=" + TOPIC + "/camera_info"],
+                               workdir, label))
+        if path != "source":
+            kind = "DepthFilterScanConverterNodelet" if path == "cloud" else "DepthImageScanConverterNodelet"
+            procs.append(_load("depth_filter_scan_converter/" + kind, "bench_converter",
+                               ["image:=" + TOPIC + "/image_rect", "camera_info:=" + TOPIC + "/camera_info",
+                                "cloud_in:=" + TOPIC + "/points", "scan:=/bench_camera/scan"], workdir, label))
         if path == "cloud":
-            procs.append(_start(["rosrun", "nodelet", "nodelet", "load", "depth_image_proc/point_cloud_xyz",
-                                 "/bench_manager", "__name:=bench_points", "image_rect:=" + TOPIC + "/image_rect",
-                                 "camera_info:=" + TOPIC + "/camera_info", "points:=" + TOPIC + "/points"],
-                                os.path.join(workdir, label + "_points.log")))
-        # Warm up: frames until scans come back (subscriptions are lazy and made in the background).
-        deadline = time.time() + 30.0
-        k = 0
-        while pub.scans < 3:
-            if time.time() > deadline or manager.poll() is not None:
-                raise RunError("%s path: no scan came back (see %s)" % (path, workdir))
-            pub.publish(k)
-            k += 1
-            time.sleep(1.0 / rate)
-        time.sleep(0.5)
-        mgr = psutil.Process(manager.pid)
-        before, scans0 = cpu_snapshot([mgr]), pub.scans
-        for i in range(frames):
-            pub.publish(k + i)
-            time.sleep(1.0 / rate)
-        deadline = time.time() + 5.0
-        while pub.scans - scans0 < frames and time.time() < deadline:
-            time.sleep(0.05)
-        cpu = cpu_delta(before, cpu_snapshot([mgr]))["total_s"]
-        scans = pub.scans - scans0
-        return {"path": path, "frames": frames, "scans": scans, "cpu_s": cpu,
-                "cpu_ms_per_frame": 1000.0 * cpu / scans if scans else float("nan")}
+            procs.append(_load("depth_image_proc/point_cloud_xyz", "bench_points",
+                               ["image_rect:=" + TOPIC + "/image_rect", "camera_info:=" + TOPIC + "/camera_info",
+                                "points:=" + TOPIC + "/points"], workdir, label))
+        if source == "manager":
+            frames0 = pub.frames_out
+            _feed_until(pub, lambda: pub.frames_out > frames0, rate, "the replay nodelet published nothing",
+                        manager, workdir)
+            # Warm up: scans come back (subscriptions are lazy and made in the background).
+            deadline, scans0 = time.time() + 30.0, pub.scans
+            while (pub.scans - scans0 if path != "source" else pub.frames_out - frames0) < 3:
+                if time.time() > deadline or manager.poll() is not None:
+                    raise RunError("%s path: no scan came back (see %s)" % (path, workdir))
+                time.sleep(0.05)
+            time.sleep(0.5)
+            before, scans0, frames0 = thread_cpu_ns(manager.pid), pub.scans, pub.frames_out
+            time.sleep(frames / rate)
+            cpu = cpu_seconds_between(before, thread_cpu_ns(manager.pid))
+            # Counted as they arrive here, at both ends of the window: the same delay at both.
+            published, scans = pub.frames_out - frames0, pub.scans - scans0
+            per = published
+        else:
+            scans0 = pub.scans
+            k = _feed_until(pub, lambda: pub.scans - scans0 >= 3, rate, "%s path: no scan came back" % path, manager,
+                            workdir)
+            time.sleep(0.5)
+            before, scans0 = thread_cpu_ns(manager.pid), pub.scans
+            for i in range(frames):
+                pub.publish(k + i)
+                time.sleep(1.0 / rate)
+            deadline = time.time() + 5.0
+            while pub.scans - scans0 < frames and time.time() < deadline:
+                time.sleep(0.05)
+            cpu = cpu_seconds_between(before, thread_cpu_ns(manager.pid))
+            published, scans = frames, pub.scans - scans0
+            per = scans
+        return {"path": path, "frames": published, "scans": scans, "cpu_s": cpu,
+                "cpu_ms_per_frame": 1000.0 * cpu / per if per else float("nan")}
     finally:
         for p in reversed(procs):
             stop_process(p)
 
 
-def experiment(width=640, height=480, frames=150, rate=15.0, repeat=2, workdir=None, log=print):
+def experiment(width=640, height=480, frames=150, rate=15.0, repeat=2, workdir=None, log=print,
+               sources=("manager", "tcp"), config=CONFIG):
+    """{source: results} for each source of frames ("manager", "tcp"; see the module's doc)."""
     import tempfile
     workdir = workdir or tempfile.mkdtemp(prefix="camera_path_benchmark_")
     _, cam, rendered = render_frames(width, height, 8)
-    runs = []
+    results = {}
     with Master(workdir, sim_time=False):
         import rospy
         rospy.init_node("camera_path_benchmark", anonymous=True, disable_signals=True)
-        pub = _Frames(cam, rendered)
-        try:
-            for r in range(repeat):
-                for path in PATHS:
-                    run = measure(path, pub, frames, rate, workdir, "%s_%d" % (path, r))
-                    runs.append(run)
-                    log("%s path, run %d: %d scans of %d frames, manager CPU %.3f ms per frame"
-                        % (path, r + 1, run["scans"], frames, run["cpu_ms_per_frame"]))
-        finally:
-            pub.close()
-            rospy.signal_shutdown("done")
-    return {"width": width, "height": height, "frames": frames, "rate": rate, "runs": runs,
-            "figures": figures(runs)}
+        for source in sources:
+            runs = []
+            pub = _Frames(cam, rendered, RECORDED if source == "manager" else TOPIC, count_frames=source == "manager")
+            try:
+                for r in range(repeat):
+                    for path in SOURCES[source]:
+                        run = measure(path, pub, frames, rate, workdir, "%s_%s_%d" % (source, path, r), source,
+                                      config)
+                        runs.append(run)
+                        log("%s source, %s path, run %d: %d scans of %d frames, manager CPU %.3f ms per frame"
+                            % (source, path, r + 1, run["scans"], run["frames"], run["cpu_ms_per_frame"]))
+            finally:
+                pub.close()
+            results[source] = {"width": width, "height": height, "frames": frames, "rate": rate, "runs": runs,
+                               "source": source, "figures": figures(runs, SOURCES[source])}
+        rospy.signal_shutdown("done")
+    return results
+
+
+ROW_LABELS = {
+    "baseline": "baseline: transport, camera_info, tf, publishing (image path reading one pixel)",
+    "source": "source: the replay nodelet alone (what a camera driver nodelet costs anyway)",
+    "image": "depth image -> scan (DepthImageScanConverterNodelet)",
+    "cloud": "point_cloud_xyz + cloud converter",
+}
 
 
 def markdown(res):
     f = res["figures"]
+    paths = SOURCES[res.get("source", "tcp")]
     def scans(path):
         runs = [r for r in res["runs"] if r["path"] == path]
         return "%d / %d" % (sum(r["scans"] for r in runs), sum(r["frames"] for r in runs))
     def above(path):
-        return fmt(f[path] - f["baseline"], 1, 3)
-    rows = [["baseline: transport, camera_info, tf, publishing (image path reading one pixel)",
-             fmt(f["baseline"], 1, 3), "", scans("baseline")],
-            ["depth image -> scan (DepthImageScanConverterNodelet)", fmt(f["image"], 1, 3), above("image"),
-             scans("image")],
-            ["point_cloud_xyz + cloud converter", fmt(f["cloud"], 1, 3), above("cloud"), scans("cloud")]]
+        return fmt(f[path] - f["baseline"], 1, 3) if path != paths[0] else ""
+    rows = [[ROW_LABELS[path], fmt(f[path], 1, 3), above(path), scans(path)] for path in paths]
+    if paths == MANAGER_PATHS:
+        where, per = "frames published inside the manager (zero copy)", "frame"
+    else:
+        where, per = "frames received over TCP", "scan"
     return "\n".join([
-        "Manager CPU per %dx%d 16UC1 frame (median of %d runs of %d frames at %.0f Hz each): "
-        "cloud path / image path = **%sx** in all, **%sx** above the baseline." % (
-            res["width"], res["height"], len(res["runs"]) // len(PATHS), res["frames"], res["rate"],
-            fmt(f["ratio"], 1, 1), fmt(f["ratio_above_baseline"], 1, 1)),
-        "", table(["path", "manager CPU per scan [ms]", "above the baseline [ms]", "scans / frames"], rows), ""])
+        "Manager CPU per %dx%d 16UC1 frame, %s (median of %d runs of %d frames at %.0f Hz each): "
+        "cloud path / image path = **%sx** in all, **%sx** above the baseline (%s)." % (
+            res["width"], res["height"], where, len(res["runs"]) // len(paths), res["frames"], res["rate"],
+            fmt(f["ratio"], 1, 1), fmt(f["ratio_above_baseline"], 1, 1), paths[0]),
+        "", table(["path", "manager CPU per %s [ms]" % per, "above the baseline [ms]", "scans / frames"], rows), ""])
 
 
 def main(argv=None):
@@ -219,6 +314,12 @@ def main(argv=None):
     p.add_argument("--frames", type=int, default=150, help="measured frames per run")
     p.add_argument("--rate", type=float, default=15.0, help="frames per second")
     p.add_argument("--repeat", type=int, default=2, help="runs per path")
+    p.add_argument("--source", choices=("manager", "tcp", "both"), default="both",
+                   help="where the frames come from: a replay nodelet in the manager (zero copy, as a camera "
+                        "driver nodelet), this process over TCP (a driver in its own process), or both")
+    p.add_argument("--config", default=CONFIG,
+                   help="the converters' parameters (default: the simulated robot's left camera, with its range "
+                        "noise model)")
     try:
         a = p.parse_args(argv)
     except SystemExit as e:
@@ -228,10 +329,12 @@ def main(argv=None):
               file=sys.stderr)
         return 2
     try:
-        res = experiment(a.width, a.height, a.frames, a.rate, a.repeat,
-                         log=lambda m: print(m, file=sys.stderr))
+        results = experiment(a.width, a.height, a.frames, a.rate, a.repeat,
+                             log=lambda m: print(m, file=sys.stderr),
+                             sources=("manager", "tcp") if a.source == "both" else (a.source,), config=a.config)
     except RunError as e:
         print("camera_path_benchmark: %s" % e, file=sys.stderr)
         return 3
-    print(markdown(res))
+    for res in results.values():
+        print(markdown(res))
     return 0

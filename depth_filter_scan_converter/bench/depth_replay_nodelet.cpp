@@ -1,0 +1,97 @@
+// A depth camera stand-in for node-level benchmarks: it records a few depth images and one
+// camera_info (from a bag being played, or from the benchmark), then publishes them again and
+// again at a fixed rate, with fresh stamps, from inside the nodelet manager. Consumers in the same
+// manager get every frame by shared pointer (zero copy), as they would from a camera driver
+// nodelet (openni2_camera, realsense2_camera, depth_image_proc); each frame is a fresh message,
+// filled by copying the recorded one, as a driver fills its message from the device's buffer.
+#include <nodelet/nodelet.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "depth_filter_scan_converter/ros_param.h"
+
+namespace depth_filter_scan_converter
+{
+class DepthReplayNodelet : public nodelet::Nodelet
+{
+private:
+  void onInit() override
+  {
+    ros::NodeHandle& nh = getNodeHandle();
+    const ros::NodeHandle& pnh = getPrivateNodeHandle();
+    try
+    {
+      readTypedParam(pnh, "rate", rate_, "double");
+      readTypedParam(pnh, "frames", frame_count_, "int");
+      if (!std::isfinite(rate_) || rate_ <= 0.0)
+        throw std::invalid_argument("parameter 'rate' must be a positive number of frames per second");
+      if (frame_count_ < 1)
+        throw std::invalid_argument("parameter 'frames' must be at least 1");
+    }
+    catch (const std::invalid_argument& e)
+    {
+      NODELET_FATAL("not starting: %s", e.what());
+      return;
+    }
+    image_pub_ = nh.advertise<sensor_msgs::Image>("image", 5);
+    info_pub_ = nh.advertise<sensor_msgs::CameraInfo>("camera_info", 5);
+    image_sub_ = nh.subscribe("image_in", 10, &DepthReplayNodelet::imageIn, this);
+    info_sub_ = nh.subscribe("camera_info_in", 10, &DepthReplayNodelet::infoIn, this);
+    NODELET_INFO("recording %d depth images from %s (and a camera_info from %s), then replaying them at %g Hz on %s",
+                 frame_count_, image_sub_.getTopic().c_str(), info_sub_.getTopic().c_str(), rate_,
+                 image_pub_.getTopic().c_str());
+  }
+
+  void imageIn(const sensor_msgs::ImageConstPtr& image)
+  {
+    if (frames_.size() < static_cast<std::size_t>(frame_count_))
+      frames_.push_back(image);
+    startWhenRecorded();
+  }
+
+  void infoIn(const sensor_msgs::CameraInfoConstPtr& info)
+  {
+    info_ = info;
+    startWhenRecorded();
+  }
+
+  void startWhenRecorded()
+  {
+    if (timer_ || !info_ || frames_.size() < static_cast<std::size_t>(frame_count_))
+      return;
+    image_sub_.shutdown();
+    info_sub_.shutdown();
+    NODELET_INFO("recorded %zu depth images: replaying", frames_.size());
+    timer_ = getNodeHandle().createWallTimer(ros::WallDuration(1.0 / rate_), &DepthReplayNodelet::publishFrame, this);
+  }
+
+  void publishFrame(const ros::WallTimerEvent&)
+  {
+    auto image = boost::make_shared<sensor_msgs::Image>(*frames_[next_frame_]);
+    auto info = boost::make_shared<sensor_msgs::CameraInfo>(*info_);
+    next_frame_ = (next_frame_ + 1) % frames_.size();
+    image->header.stamp = ros::Time::now();
+    info->header = image->header;
+    info_pub_.publish(info);
+    image_pub_.publish(image);
+  }
+
+  double rate_ = 15.0;
+  int frame_count_ = 8;
+  std::vector<sensor_msgs::ImageConstPtr> frames_;
+  sensor_msgs::CameraInfoConstPtr info_;
+  std::size_t next_frame_ = 0;
+  ros::Subscriber image_sub_, info_sub_;
+  ros::Publisher image_pub_, info_pub_;
+  ros::WallTimer timer_;
+};
+}  // namespace depth_filter_scan_converter
+
+PLUGINLIB_EXPORT_CLASS(depth_filter_scan_converter::DepthReplayNodelet, nodelet::Nodelet)
