@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "depth_filter_scan_converter/ros_param.h"
+#include "depth_filter_scan_converter/converter_glue.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -31,13 +31,13 @@ private:
       readTypedParam(pnh, "rate", rate_, "double");
       readTypedParam(pnh, "frames", frame_count_, "int");
       if (!std::isfinite(rate_) || rate_ <= 0.0)
-        throw std::invalid_argument("parameter 'rate' must be a positive number of frames per second");
+        throw laserscan_common::ParameterError("rate", "must be a positive number of frames per second");
       if (frame_count_ < 1)
-        throw std::invalid_argument("parameter 'frames' must be at least 1");
+        throw laserscan_common::ParameterError("frames", "must be at least 1");
     }
-    catch (const std::invalid_argument& e)
+    catch (const laserscan_common::ParameterError& e)
     {
-      NODELET_FATAL("not starting: %s", e.what());
+      NODELET_FATAL("not starting: %s", describe(e).c_str());
       return;
     }
     image_pub_ = nh.advertise<sensor_msgs::Image>("image", 5);
