@@ -137,6 +137,21 @@ def node_output_after_one_message(env, name, yaml_text, topic, msg_type, msg):
     return alive, out
 
 
+def node_output_with_feed(env, name, yaml_text, feed_script, *feed_args):
+    """Starts the node, runs the feed script (rospy) to its end, stops the node: (still alive before
+    the stop, the feed's CompletedProcess, the node's output)."""
+    set_params(env, name, yaml_text)
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name],
+                         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(1.0)
+    feed = subprocess.run(['/usr/bin/python3', '-c', feed_script, *feed_args], env=env, capture_output=True,
+                          text=True, timeout=60)
+    alive = p.poll() is None
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=20)
+    return alive, feed, out
+
+
 def test_malformed_scan_is_reported(ros_env):
     alive, out = node_output_after_one_message(
         ros_env, 'merger_m', 'odom_topic: ""\nsources: [{name: front, topic: m/scan}]', '/m/scan',
@@ -210,16 +225,9 @@ def test_faulty_and_conflicting_transforms_are_named_once_and_the_static_mount_s
     # throttle; and a /tf transform of a frame that /tf_static holds replaces the static one for
     # good in tf2 (the lidar 1 m ahead of base_link would move 2 m back). The merger ignores both,
     # naming each frame pair once per 5 s.
-    name = 'merger_tf_conflict'
-    set_params(ros_env, name, 'odom_topic: ""\nsources: [{name: lidar, topic: tc/scan, timeout: 0.5}]')
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name],
-                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(1.0)
-    feed = subprocess.run(['/usr/bin/python3', '-c', TF_CONFLICT_FEED], env=ros_env, capture_output=True, text=True,
-                          timeout=60)
-    alive = p.poll() is None
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
+    alive, feed, out = node_output_with_feed(
+        ros_env, 'merger_tf_conflict', 'odom_topic: ""\nsources: [{name: lidar, topic: tc/scan, timeout: 0.5}]',
+        TF_CONFLICT_FEED)
     assert alive, out
     assert feed.returncode == 0, feed.stderr
     nearest = json.loads(feed.stdout.strip().splitlines()[-1])
@@ -290,15 +298,8 @@ sys.stdout.flush()
 
 
 def test_unusable_odometry_is_named(ros_env):
-    set_params(ros_env, 'merger_o', 'odom_topic: o/odom\nsources: [{name: front, topic: o/scan}]')
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_o'],
-                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(1.0)
-    feed = subprocess.run(['/usr/bin/python3', '-c', BAD_ODOM_FEED], env=ros_env, capture_output=True, text=True,
-                          timeout=60)
-    alive = p.poll() is None
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
+    alive, feed, out = node_output_with_feed(
+        ros_env, 'merger_o', 'odom_topic: o/odom\nsources: [{name: front, topic: o/scan}]', BAD_ODOM_FEED)
     assert alive, out
     assert int(feed.stdout.split()[-1]) >= 10, feed.stdout + feed.stderr  # merged without motion compensation
     assert 'zero quaternion ignored' in out and "none of the" in out and 'odometry messages' in out, out
@@ -457,16 +458,9 @@ def test_zero_and_far_ahead_stamps_are_malformed(ros_env, bad):
     # A scan stamped 0 used to clear every buffer (a "jump back") and give a merged scan stamped 0;
     # a /tf transform stamped far ahead used to poison tf2's cache: every later, valid transform
     # of that frame was refused as too old and the source disappeared without a word.
-    name = 'merger_stamp_' + bad
-    set_params(ros_env, name, 'odom_topic: ""\nsources: [{name: lidar, topic: s/scan, timeout: 0.5}]')
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name],
-                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(1.0)
-    feed = subprocess.run(['/usr/bin/python3', '-c', STAMP_FEED, bad], env=ros_env, capture_output=True, text=True,
-                          timeout=60)
-    alive = p.poll() is None
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
+    alive, feed, out = node_output_with_feed(
+        ros_env, 'merger_stamp_' + bad, 'odom_topic: ""\nsources: [{name: lidar, topic: s/scan, timeout: 0.5}]',
+        STAMP_FEED, bad)
     assert alive, out
     counts = dict(line.split() for line in feed.stdout.splitlines() if line.startswith(('zero_stamped', 'after')))
     assert counts.get('zero_stamped') == '0', feed.stdout + feed.stderr + out
