@@ -7,7 +7,7 @@
 #include <tuple>
 
 #include "depth_filter_scan_converter/cloud_view.hpp"
-#include "depth_filter_scan_converter/fast_atan2.h"
+#include "laserscan_common/fast_math.hpp"
 #include "depth_filter_scan_converter/projector.hpp"
 
 namespace py = pybind11;
@@ -182,6 +182,6 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
     py::arg("is_bigendian"), py::arg("data"),
     "Empty string when the layout is usable, else the reason it is not. fields: [(name, offset, datatype, count)]");
 
-  m.def("fast_atan2", py::vectorize(&dfsc::fastAtan2), py::arg("y"), py::arg("x"));
-  m.attr("FAST_ATAN2_MAX_ERROR") = dfsc::kFastAtan2MaxError;
+  m.def("fast_atan2", py::vectorize(&laserscan_common::fastAtan2), py::arg("y"), py::arg("x"));
+  m.attr("FAST_ATAN2_MAX_ERROR") = laserscan_common::kFastAtan2MaxError;
 }

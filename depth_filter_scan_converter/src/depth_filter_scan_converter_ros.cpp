@@ -13,7 +13,6 @@
 #include <type_traits>
 
 #include "depth_filter_scan_converter/cloud_view.hpp"
-#include "depth_filter_scan_converter/header_check.h"
 
 namespace depth_filter_scan_converter
 {
@@ -30,31 +29,6 @@ const char* failureText(tf2_ros::filter_failure_reasons::FilterFailureReason rea
     default:
       return "no transform arrived before newer clouds pushed it out of the queue";
   }
-}
-
-bool transformIsFinite(const geometry_msgs::Transform& t)
-{
-  return std::isfinite(t.translation.x) && std::isfinite(t.translation.y) && std::isfinite(t.translation.z) &&
-         std::isfinite(t.rotation.x) && std::isfinite(t.rotation.y) && std::isfinite(t.rotation.z) &&
-         std::isfinite(t.rotation.w);
-}
-
-// Why tf2 would refuse the transform, or "" when it takes it. tf2 checks these too, but logs
-// each refusal without throttle (a faulty publisher at 100 Hz floods the log); an infinite
-// translation it does not refuse at all.
-std::string transformProblem(const geometry_msgs::TransformStamped& t)
-{
-  if (t.header.frame_id.empty() || t.child_frame_id.empty())
-    return "frame_id or child_frame_id is empty";
-  if (tfFrameId(t.header.frame_id) == tfFrameId(t.child_frame_id))
-    return "a frame cannot be its own parent";
-  if (!transformIsFinite(t.transform))
-    return "translation or rotation is not finite (tf2 itself refuses only NaN)";
-  const auto& q = t.transform.rotation;
-  // tf2's own limit for a normalised quaternion.
-  if (std::fabs(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w - 1.0) > 0.01)
-    return "the rotation is not a unit quaternion";
-  return {};
 }
 }  // namespace
 
@@ -104,8 +78,12 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
     projector_(params_),
     diagnostics_(nh, private_nh, [this](diagnostic_updater::DiagnosticStatusWrapper& status) { diagnose(status); })
 {
-  tf_sub_ = nh_.subscribe("/tf", 100, &DepthFilterScanConverter::tfArrived, this);
-  tf_static_sub_ = nh_.subscribe("/tf_static", 100, &DepthFilterScanConverter::tfStaticArrived, this);
+  frame_id_ = laserscan_common::FrameIdNormaliser([this](const std::string& frame_id, const std::string& used) {
+    // tf2_ros's MessageFilter strips it too; say it once, then use the frame without it.
+    ROS_WARN("[%s] frame_id '%s' on %s starts with '/', which tf2 does not accept: using '%s' (said once)",
+             private_nh_.getNamespace().c_str(), frame_id.c_str(), input_topic_.c_str(), used.c_str());
+  });
+  tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, private_nh_.getNamespace());
 
   // Messages wait in the tf filter (never in a callback) until their transform is there. The
   // filter delivers through nh's callback queue, so processing runs in the node's own threads.
@@ -176,39 +154,6 @@ void DepthFilterScanConverter::unsubscribeInput()
   info_sub_.unsubscribe();
 }
 
-void DepthFilterScanConverter::addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static)
-{
-  // tf_buffer_ locks itself; the margin is the one the headers of our inputs get (headerProblem).
-  const double margin = params_.transform.tf_buffer_duration + params_.transform.transform_tolerance;
-  const std::string& authority = event.getPublisherName();
-  for (const auto& t : event.getMessage()->transforms)
-  {
-    std::string why = stampProblem(t.header.stamp.sec, t.header.stamp.nsec, margin);
-    if (why.empty())
-      why = transformProblem(t);
-    if (why.empty())
-      try
-      {
-        tf_buffer_.setTransform(t, authority, is_static);
-      }
-      catch (const std::exception& e)
-      {
-        why = e.what();
-      }
-    if (why.empty())
-      continue;
-    // Throttled per frame pair: one faulty publisher must not hide another.
-    std::lock_guard<std::mutex> lock(tf_warning_mutex_);
-    const std::string pair = "'" + t.header.frame_id + "' -> '" + t.child_frame_id + "'";
-    if (warned_transforms_.size() > 100)
-      warned_transforms_.clear();
-    if (due(warned_transforms_[pair]))
-      ROS_WARN("[%s] ignored the transform %s from %s on %s (stamp %s): %s", private_nh_.getNamespace().c_str(),
-               pair.c_str(), authority.c_str(), is_static ? "/tf_static" : "/tf",
-               stampText(t.header.stamp.sec, t.header.stamp.nsec).c_str(), why.c_str());
-  }
-}
-
 template <class M>
 void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message, const CameraInfo::ConstPtr& info,
                                        tf2_ros::MessageFilter<M>& filter)
@@ -227,7 +172,7 @@ void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message
     // The usual case, the transform already there: convert now, without the filter's extra trip
     // through the callback queue (and its second tf query).
     const tf2::BufferCore& transforms = tf_buffer_;
-    if (transforms.canTransform(params_.transform.reference_frame, tfFrameId(message->header.frame_id),
+    if (transforms.canTransform(params_.transform.reference_frame, laserscan_common::tf2FrameId(message->header.frame_id),
                                 message->header.stamp))
     {
       convert(*message, Arrival{ message, ros::Time(), info });
@@ -259,28 +204,23 @@ void DepthFilterScanConverter::imageDropped(const Image::ConstPtr& image, const 
       "[%s] dropped a depth image on %s (stamp %s): no camera_info with its stamp came on %s before a "
       "newer frame's did, or within queue_size (%d) frames",
       private_nh_.getNamespace().c_str(), input_topic_.c_str(),
-      stampText(image->header.stamp.sec, image->header.stamp.nsec).c_str(), nh_.resolveName("camera_info").c_str(),
-      queue_size_);
+      laserscan_common::stampText(image->header.stamp.sec, image->header.stamp.nsec).c_str(),
+      nh_.resolveName("camera_info").c_str(), queue_size_);
 }
 
 std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& header)
 {
+  const std::string stamp = laserscan_common::stampText(header.stamp.sec, header.stamp.nsec);
   if (header.frame_id.empty())
-    return "empty frame_id (stamp " + stampText(header.stamp.sec, header.stamp.nsec) + ")";
-  const std::string stamp_problem = stampProblem(
-    header.stamp.sec, header.stamp.nsec, params_.transform.tf_buffer_duration + params_.transform.transform_tolerance);
-  if (!stamp_problem.empty())
-    return stamp_problem;
-  bool had_slash = false;
-  tfFrameId(header.frame_id, &had_slash);
-  if (had_slash && !warned_slash_)
-  {
-    // tf2_ros's MessageFilter strips it too; say it once, then use the frame without it.
-    warned_slash_ = true;
-    ROS_WARN("[%s] frame_id '%s' on %s starts with '/', which tf2 does not accept: using '%s' (said once)",
-             private_nh_.getNamespace().c_str(), header.frame_id.c_str(), input_topic_.c_str(),
-             tfFrameId(header.frame_id).c_str());
-  }
+    return "empty frame_id (stamp " + stamp + ")";
+  // Only looked up: any stamp that leaves tf2 and roscpp room for what they add to it.
+  const laserscan_common::StampLimits limits{ laserscan_common::kMaxStampAheadNs,
+                                              params_.transform.tf_buffer_duration +
+                                                params_.transform.transform_tolerance };
+  if (const char* fault = laserscan_common::stampFault(header.stamp.sec, header.stamp.nsec, 0,
+                                                       laserscan_common::StampUse::kLookup, limits))
+    return std::string(fault) + " (stamp " + stamp + ")";
+  frame_id_(header.frame_id);
   return {};
 }
 
@@ -326,7 +266,7 @@ void DepthFilterScanConverter::transformFailed(const boost::shared_ptr<const M>&
   if (due(warned_tf_))
     ROS_WARN("[%s] dropped a cloud: no transform %s -> %s at %s: %s", private_nh_.getNamespace().c_str(),
              cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
-             stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec).c_str(), last_tf_reason_.c_str());
+             laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec).c_str(), last_tf_reason_.c_str());
 }
 
 std::string DepthFilterScanConverter::viewOf(const Cloud& cloud, const Arrival& /*arrival*/, CloudView& view)
@@ -389,13 +329,12 @@ void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
   Eigen::Isometry3d camera_to_reference;
   try
   {
-    const auto transform = tf_buffer_.lookupTransform(params_.transform.reference_frame,
-                                                      tfFrameId(cloud->header.frame_id), cloud->header.stamp);
-    // Each stored transform is finite (addTransforms), but a chain of them can sum to infinity.
-    if (!transformIsFinite(transform.transform))
-      throw tf2::TransformException("the transform '" + tfFrameId(cloud->header.frame_id) + "' -> '" +
-                                    params_.transform.reference_frame + "' at " +
-                                    stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec) +
+    const std::string frame = laserscan_common::tf2FrameId(cloud->header.frame_id);
+    const auto transform = tf_buffer_.lookupTransform(params_.transform.reference_frame, frame, cloud->header.stamp);
+    // Each stored transform is finite (tf_reader_), but a chain of them can sum to infinity.
+    if (!laserscan_common::transformIsFinite(transform.transform))
+      throw tf2::TransformException("the transform '" + frame + "' -> '" + params_.transform.reference_frame +
+                                    "' at " + laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec) +
                                     " is not finite (a chain of transforms sums to infinity)");
     camera_to_reference = tf2::transformToEigen(transform);
   }

@@ -7,7 +7,7 @@
 #include <limits>
 #include <type_traits>
 
-#include "depth_filter_scan_converter/fast_atan2.h"
+#include "laserscan_common/fast_math.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -151,7 +151,7 @@ __attribute__((always_inline)) inline void transformChunk(std::uint32_t n, const
     // here: a point that is too close is the beam's closest obstacle, reported at the end.
     const float r2 = xr * xr + yr * yr;
     ok = ok & (r2 <= f.r2_max);
-    const float a = fastAtan2(yr, xr);
+    const float a = laserscan_common::fastAtan2(yr, xr);
     ok = ok & (a >= f.a_lo) & (a <= f.a_hi);
     // Clamp before converting (NaN -> 0): the bounds check of the beam index, which also keeps a
     // point on angle_max in the last beam.

@@ -12,8 +12,6 @@
 #include <vector>
 
 #include "depth_filter_scan_converter/cloud_view.hpp"
-#include "depth_filter_scan_converter/fast_atan2.h"
-#include "depth_filter_scan_converter/header_check.h"
 #include "depth_filter_scan_converter/parameters.hpp"
 #include "depth_filter_scan_converter/projector.hpp"
 #include "cloud_fixtures.hpp"
@@ -131,26 +129,6 @@ TEST(Projector, SetParametersRejectsInvalidAndKeepsTheOldOnes)
 }
 
 // ---------------------------------------------------------------- angle approximation
-
-TEST(FastAtan2, ErrorIsFarBelowHalfABeam)
-{
-  double worst = 0.0;
-  const double radii[] = { 1e-3, 0.5, 1.0, 7.3, 100.0 };
-  for (double r : radii)
-    for (int i = 0; i <= 200000; ++i)
-    {
-      const double a = -M_PI + 2 * M_PI * i / 200000.0;
-      const float x = static_cast<float>(r * std::cos(a)), y = static_cast<float>(r * std::sin(a));
-      const double err = std::fabs(dfsc::fastAtan2(y, x) - std::atan2(static_cast<double>(y), static_cast<double>(x)));
-      worst = std::max(worst, std::min(err, 2 * M_PI - err));  // +pi and -pi are one direction
-    }
-  EXPECT_LT(worst, dfsc::kFastAtan2MaxError);
-  EXPECT_LT(dfsc::kFastAtan2MaxError, 0.01 * (M_PI / 720.0) / 2.0);  // < 1 % of half a default beam
-  EXPECT_EQ(dfsc::fastAtan2(0.0f, 0.0f), 0.0f);
-  EXPECT_FLOAT_EQ(dfsc::fastAtan2(0.0f, -1.0f), static_cast<float>(M_PI));
-  EXPECT_FLOAT_EQ(dfsc::fastAtan2(1.0f, 0.0f), static_cast<float>(M_PI / 2));
-  EXPECT_FLOAT_EQ(dfsc::fastAtan2(-1.0f, 0.0f), static_cast<float>(-M_PI / 2));
-}
 
 // ---------------------------------------------------------------- analytic cases
 
@@ -789,32 +767,6 @@ TEST(RangeNoise, BadNoiseParametersAreNamed)
 }
 
 // ---------------------------------------------------------------- real data
-// ---------------------------------------------------------------- headers
-
-TEST(HeaderCheck, StampsNearTheEndOfRosTimeAreRejected)
-{
-  EXPECT_EQ(dfsc::stampProblem(1700000000u, 999999999u, 10.1), "");
-  EXPECT_EQ(dfsc::stampProblem(0u, 0u, 10.1), "");
-  // The stamp that made roscpp throw "Time is out of dual 32-bit range" inside tf2.
-  const std::string huge = dfsc::stampProblem(4294967295u, 999999999u, 10.1);
-  EXPECT_NE(huge.find("4294967295.999999999"), std::string::npos) << huge;
-  EXPECT_NE(dfsc::stampProblem(4294967295u - 10u, 0u, 10.1), "");
-  EXPECT_EQ(dfsc::stampProblem(4294967295u - 12u, 0u, 10.1), "");
-  EXPECT_NE(dfsc::stampProblem(5u, 1000000000u, 0.0).find("nsecs"), std::string::npos);
-  EXPECT_EQ(dfsc::stampText(3u, 5u), "3.000000005");
-}
-
-TEST(HeaderCheck, OneLeadingSlashIsStrippedAsTf2Does)
-{
-  bool slash = false;
-  EXPECT_EQ(dfsc::tfFrameId("/camera_optical", &slash), "camera_optical");
-  EXPECT_TRUE(slash);
-  EXPECT_EQ(dfsc::tfFrameId("camera_optical", &slash), "camera_optical");
-  EXPECT_FALSE(slash);
-  EXPECT_EQ(dfsc::tfFrameId("", &slash), "");
-  EXPECT_FALSE(slash);
-}
-
 #include "five_people_test.inc"
 
 int main(int argc, char** argv)

@@ -3,7 +3,9 @@ near 2^32 s (tf2 adds its cache length to the stamp, roscpp throws "Time is out 
 range", and through tf2_ros::TransformListener that aborted the process and a whole nodelet
 manager) and one with an infinite translation (tf2 refuses only NaN) are ignored, each named in a
 warning, and clouds keep being converted. So are the transforms tf2 refuses itself, but with
-an unthrottled error per message (no child frame, a frame its own parent, a zero quaternion).
+an unthrottled error per message (no child frame, a frame its own parent, a zero quaternion), and
+/tf transforms stamped 0 or more than tf2's cache length ahead of the clock (one far ahead made
+tf2 refuse every later transform of that frame as too old).
 A cloud whose camera -> robot transform is not finite (a chain of finite transforms can sum to
 infinity) is dropped and counted with that reason, not published as a scan of no returns."""
 import json
@@ -73,10 +75,26 @@ time.sleep(0.5)
 for i in range(20):
     clouds.publish(cloud('camera' if i % 2 == 0 else 'far_camera'))
     time.sleep(0.1)
+# A camera on a moving mount (/tf). A transform of it stamped 60 s ahead would make tf2 refuse
+# every later one as too old (its cache is 10 s), and a dynamic one stamped 0 is unset: both are
+# ignored under the merger's rules for measurements, and the valid ones that follow are used.
+def at(t, stamp):
+    t.header.stamp = stamp
+    return t
+tf.publish(TFMessage([transform('base_link', 'moving', 0.0, secs=rospy.Time.now().secs + 60),
+                      transform('base_link', 'unset', 0.0, secs=0)]))
+time.sleep(0.3)
+for i in range(10):
+    m = cloud('moving')
+    tf.publish(TFMessage([at(transform('base_link', 'moving', 0.0), m.header.stamp)]))
+    clouds.publish(m)
+    time.sleep(0.1)
+tf.publish(TFMessage([at(transform('base_link', 'moving', 0.0), rospy.Time.now())]))
 time.sleep(2.5)
 last_tf = [v.value for m in diag for s in m.status for v in s.values if v.key == 'last transform failure']
 failures = [int(v.value) for m in diag for s in m.status for v in s.values if v.key == 'transform failures']
 print(json.dumps({'camera': scans.get('camera', []), 'far_camera': scans.get('far_camera', []),
+                  'moving': scans.get('moving', []),
                   'last_tf': last_tf[-1] if last_tf else '', 'failures': max(failures) if failures else 0}))
 """
 
@@ -105,3 +123,7 @@ def test_faulty_transforms_are_ignored_and_conversion_goes_on(ros_env, nodelet):
     assert result["far_camera"] == [], (result, out)
     assert "not finite" in result["last_tf"] and result["failures"] >= 8, (result, out)
     assert "'far_camera'" in out and "not finite" in out, out
+    # /tf stamped far ahead of the clock or 0 is ignored and named; the moving camera's clouds go on.
+    assert "'base_link' -> 'moving' from /tf_fault_feed on /tf" in out and "ahead of the clock" in out, out
+    assert "'base_link' -> 'unset'" in out and "stamp is zero" in out, out
+    assert len(result["moving"]) >= 8 and min(result["moving"]) == 20, (result, out)

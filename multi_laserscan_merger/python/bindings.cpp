@@ -4,7 +4,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include "multi_laserscan_merger/fast_math.hpp"
+#include "laserscan_common/fast_math.hpp"
+#include "laserscan_common/message_checks.hpp"
 #include "multi_laserscan_merger/merger_core.hpp"
 
 namespace py = pybind11;
@@ -112,7 +113,7 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
   m.doc() = "ROS-free core of multi_laserscan_merger (times in seconds, angles in radians, ranges in metres)";
   py::register_local_exception<ParameterError>(m, "ParameterError", PyExc_ValueError);
 
-  m.def("fast_atan2", &fastAtan2, py::arg("y"), py::arg("x"));
+  m.def("fast_atan2", &laserscan_common::fastAtan2, py::arg("y"), py::arg("x"));
   m.def(
     "remap_resolution",
     [](const std::vector<float>& in, std::size_t n_new) {
@@ -133,8 +134,9 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
   m.def(
     "stamp_fault",
     [](std::uint32_t sec, std::uint32_t nsec, std::int64_t now_ns, bool static_transform) -> py::object {
-      const char* f =
-        stampFault(sec, nsec, now_ns, static_transform ? StampUse::kStaticTransform : StampUse::kMeasurement);
+      const char* f = laserscan_common::stampFault(
+        sec, nsec, now_ns,
+        static_transform ? laserscan_common::StampUse::kStaticTransform : laserscan_common::StampUse::kMeasurement);
       return f == nullptr ? py::object(py::none()) : py::object(py::str(f));
     },
     py::arg("sec"), py::arg("nsec"), py::arg("now_ns"), py::arg("static_transform") = false,

@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <cstring>
 
-#include "multi_laserscan_merger/fast_math.hpp"
+#include "laserscan_common/fast_math.hpp"
 
 namespace multi_laserscan_merger
 {
@@ -73,7 +73,7 @@ inline __attribute__((always_inline)) void projectLoop(std::size_t len, const fl
     }
     const float x = r * (a00 * cg[j] + a01 * sg[j]) + a02;
     const float y = r * (a10 * cg[j] + a11 * sg[j]) + a12;
-    float rel = fastAtan2(y, x) - amin;
+    float rel = laserscan_common::fastAtan2(y, x) - amin;
     rel += rel < 0.0f ? kTwoPi : 0.0f;
     rel -= rel >= kTwoPi ? kTwoPi : 0.0f;
     // A far transform (a huge odometry position or mount translation) can make x, y infinite

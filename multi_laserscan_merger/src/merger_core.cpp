@@ -43,31 +43,6 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
 }
 }  // namespace
 
-const char* stampFault(std::uint32_t sec, std::uint32_t nsec, std::int64_t now_ns, StampUse use)
-{
-  if (nsec >= 1000000000u)
-    return "stamp nsecs >= 1e9 (not normalised)";
-  if (use == StampUse::kStaticTransform)
-    return nullptr;
-  if (sec == 0 && nsec == 0)
-    return "stamp is zero (unset)";
-  // Both are below 2^32 s in nanoseconds (< 2^63): the difference cannot overflow.
-  const std::int64_t offset = static_cast<std::int64_t>(sec) * 1000000000LL + nsec - now_ns;
-  if (now_ns != 0 && offset > kMaxStampAheadNs)
-    return "stamp more than 10 s (tf2's cache length) ahead of the clock";
-  if (offset > kMaxClockOffsetNs)
-    return "stamp more than 2^31 s ahead of the clock";
-  if (offset < -kMaxClockOffsetNs)
-    return "stamp more than 2^31 s behind the clock";
-  return nullptr;
-}
-
-std::string tf2FrameId(const std::string& frame_id, bool& stripped)
-{
-  stripped = !frame_id.empty() && frame_id[0] == '/';
-  return stripped ? frame_id.substr(1) : frame_id;
-}
-
 bool insidePolygon(const std::vector<std::array<double, 2>>& polygon, double x, double y)
 {
   bool inside = false;

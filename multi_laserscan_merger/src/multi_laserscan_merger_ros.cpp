@@ -142,13 +142,6 @@ ScanView viewOf(const sensor_msgs::LaserScan& m)
   return v;
 }
 
-bool transformIsFinite(const geometry_msgs::Transform& t)
-{
-  const double values[] = { t.translation.x, t.translation.y, t.translation.z, t.rotation.x,
-                            t.rotation.y,    t.rotation.z,    t.rotation.w };
-  return std::all_of(std::begin(values), std::end(values), [](double v) { return std::isfinite(v); });
-}
-
 }  // namespace
 
 MergerParams loadParams(const ros::NodeHandle& pnh)
@@ -199,9 +192,20 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
                              "', the merger's own output topic (remap the output or the source)");
   odom_ = OdometryBuffer(static_cast<std::size_t>(params_.odom_queue_size));
   sources_.resize(params_.sources.size());
+  for (std::size_t i = 0; i < sources_.size(); ++i)
+    sources_[i].frame_id =
+      laserscan_common::FrameIdNormaliser([this, i](const std::string& frame_id, const std::string& used) {
+        const SourceParams& sp = params_.sources[i];
+        ROS_WARN("%s: source '%s' (%s): frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
+                 name_.c_str(), sp.name.c_str(), sp.topic.c_str(), frame_id.c_str(), used.c_str());
+      });
+  odom_child_frame_id_ =
+    laserscan_common::FrameIdNormaliser([this](const std::string& frame_id, const std::string& used) {
+      ROS_WARN("%s: odometry (%s): child_frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
+               name_.c_str(), odom_topic_.c_str(), frame_id.c_str(), used.c_str());
+    });
   inputs_.resize(params_.sources.size());
-  tf_sub_ = nh_.subscribe("/tf", 100, &MultiLaserScanMergerRos::tfCallback, this);
-  tf_static_sub_ = nh_.subscribe("/tf_static", 100, &MultiLaserScanMergerRos::tfStaticCallback, this);
+  tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, name_);
   last_now_ = ros::Time::now();
   last_report_ = ros::WallTime::now();
 
@@ -289,37 +293,6 @@ bool MultiLaserScanMergerRos::tryTransform(const std::string& frame, const ros::
   return true;
 }
 
-void MultiLaserScanMergerRos::addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static)
-{
-  // tf_buffer_ locks itself: no mutex_ here.
-  const std::int64_t now = static_cast<std::int64_t>(ros::Time::now().toNSec());
-  const std::string& authority = event.getPublisherName();
-  for (const auto& t : event.getMessage()->transforms)
-  {
-    // tf2 adds its cache length to the stamps (ros::Time + ros::Duration throws beyond 2^32 s), and
-    // one transform far ahead makes it refuse every later one of that frame (TF_OLD_DATA).
-    std::string why;
-    if (const char* fault = stampFault(t.header.stamp.sec, t.header.stamp.nsec, now,
-                                       is_static ? StampUse::kStaticTransform : StampUse::kMeasurement))
-      why = fault;
-    else if (!transformIsFinite(t.transform))
-      why = "translation or rotation is not finite (tf2 itself refuses only NaN)";
-    else
-      try
-      {
-        tf_buffer_.setTransform(t, authority, is_static);
-      }
-      catch (const std::exception& e)
-      {
-        why = e.what();
-      }
-    if (!why.empty())
-      ROS_WARN_THROTTLE(5.0, "%s: transform '%s' -> '%s' from %s on %s with stamp %u.%09u ignored: %s", name_.c_str(),
-                        t.header.frame_id.c_str(), t.child_frame_id.c_str(), authority.c_str(),
-                        is_static ? "/tf_static" : "/tf", t.header.stamp.sec, t.header.stamp.nsec, why.c_str());
-  }
-}
-
 void MultiLaserScanMergerRos::drop(std::size_t i, std::string why)
 {
   ++sources_[i].dropped;
@@ -350,36 +323,29 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
   const SourceParams& sp = params_.sources[i];
   ++s.received;
   const ScanView view = viewOf(*msg);
-  bool stripped = false;
-  const std::string frame = tf2FrameId(msg->header.frame_id, stripped);
   const ros::Time now = ros::Time::now();
   const char* fault = scanFault(view);
-  if (fault == nullptr && frame.empty())
+  if (fault == nullptr && laserscan_common::tf2FrameId(msg->header.frame_id).empty())
     fault = "empty frame_id";
   if (fault == nullptr)
-    fault = stampFault(msg->header.stamp.sec, msg->header.stamp.nsec, static_cast<std::int64_t>(now.toNSec()));
+    fault = laserscan_common::stampFault(msg->header.stamp.sec, msg->header.stamp.nsec,
+                                         static_cast<std::int64_t>(now.toNSec()));
   if (fault != nullptr)
   {
     ++s.malformed;
-    char stamp[64];
-    std::snprintf(stamp, sizeof stamp, "%u.%09u", msg->header.stamp.sec, msg->header.stamp.nsec);
+    const std::string stamp = laserscan_common::stampText(msg->header.stamp.sec, msg->header.stamp.nsec);
     drop(i,
          std::string("malformed scan: ") + fault + " (stamp " + stamp + ", frame_id '" + msg->header.frame_id + "')");
     ROS_WARN_THROTTLE(5.0,
                       "%s: source '%s' (%s): malformed scan dropped: %s (stamp %s, clock %.3f, frame_id '%s', %zu "
                       "ranges, %zu intensities, angles %g..%g step %g)",
-                      name_.c_str(), sp.name.c_str(), sp.topic.c_str(), fault, stamp, now.toSec(),
+                      name_.c_str(), sp.name.c_str(), sp.topic.c_str(), fault, stamp.c_str(), now.toSec(),
                       msg->header.frame_id.c_str(), msg->ranges.size(), msg->intensities.size(), msg->angle_min,
                       msg->angle_max, msg->angle_increment);
     retryPending();
     return;
   }
-  if (stripped && !s.slash_reported)
-  {
-    s.slash_reported = true;
-    ROS_WARN("%s: source '%s' (%s): frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
-             name_.c_str(), sp.name.c_str(), sp.topic.c_str(), msg->header.frame_id.c_str(), frame.c_str());
-  }
+  const std::string frame = s.frame_id(msg->header.frame_id);
   if (s.scan && view.stamp < s.scan->header.stamp.toSec() - 1.0)
     clearAll("source '" + sp.name + "' stamps jumped backwards");
   std::string error;
@@ -488,15 +454,14 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
   ++odom_received_;
   last_odom_arrival_ = ros::WallTime::now();
   const ros::Time now = ros::Time::now();
-  if (const char* fault =
-        stampFault(msg->header.stamp.sec, msg->header.stamp.nsec, static_cast<std::int64_t>(now.toNSec())))
+  if (const char* fault = laserscan_common::stampFault(msg->header.stamp.sec, msg->header.stamp.nsec,
+                                                       static_cast<std::int64_t>(now.toNSec())))
   {
     ++odom_rejected_;
-    char stamp[64];
-    std::snprintf(stamp, sizeof stamp, "%u.%09u", msg->header.stamp.sec, msg->header.stamp.nsec);
+    const std::string stamp = laserscan_common::stampText(msg->header.stamp.sec, msg->header.stamp.nsec);
     odom_last_rejection_ = std::string(fault) + " (stamp " + stamp + ")";
     ROS_WARN_THROTTLE(5.0, "%s: odometry (%s) with stamp %s ignored: %s (clock %.3f)", name_.c_str(),
-                      odom_topic_.c_str(), stamp, fault, now.toSec());
+                      odom_topic_.c_str(), stamp.c_str(), fault, now.toSec());
     retryPending();
     return;
   }
@@ -522,14 +487,7 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
   }
   if (r != OdometryBuffer::AddResult::kOutOfOrder)
     odom_newest_ = msg->header.stamp;
-  bool stripped = false;
-  odom_child_frame_ = tf2FrameId(msg->child_frame_id, stripped);
-  if (stripped && !odom_slash_reported_)
-  {
-    odom_slash_reported_ = true;
-    ROS_WARN("%s: odometry (%s): child_frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
-             name_.c_str(), odom_topic_.c_str(), msg->child_frame_id.c_str(), odom_child_frame_.c_str());
-  }
+  odom_child_frame_ = odom_child_frame_id_(msg->child_frame_id);
   retryPending();
 }
 

@@ -5,7 +5,6 @@
 #include <limits>
 #include <random>
 
-#include "multi_laserscan_merger/fast_math.hpp"
 #include "multi_laserscan_merger/merger_core.hpp"
 
 using namespace multi_laserscan_merger;
@@ -431,51 +430,6 @@ TEST(Readings, TooCloseIsObstacleSwitch)
 
 // ---------------------------------------------------------------- input checks
 
-TEST(InputChecks, StampsFarFromTheClockAreMalformed)
-{
-  const std::int64_t now = 1796013955LL * 1000000000LL + 944403171LL;
-  EXPECT_EQ(stampFault(1796013955u, 944403171u, now), nullptr);
-  EXPECT_EQ(stampFault(1u, 0u, now), nullptr);                   // a bag's stamps years in the past
-  EXPECT_NE(stampFault(4294967295u, 999999999u, now), nullptr);  // the crash of issue 8
-  EXPECT_NE(std::string(stampFault(4294967295u, 0u, now)).find("ahead"), std::string::npos);
-  EXPECT_NE(stampFault(1796013955u, 1000000000u, now), nullptr);  // nsecs not normalised
-  // Sim time before the first /clock (now = 0): every stamp up to 2^31 - 1 s is usable.
-  EXPECT_EQ(stampFault(2147483647u, 999999999u, 0), nullptr);
-  EXPECT_NE(stampFault(2147483648u, 1u, 0), nullptr);
-  EXPECT_NE(std::string(stampFault(1u, 0u, 4294967295LL * 1000000000LL)).find("behind"), std::string::npos);
-}
-
-TEST(InputChecks, ZeroStampsAndStampsAheadOfTheClockAreMalformedMeasurements)
-{
-  const std::int64_t now = 1796013955LL * 1000000000LL + 944403171LL;
-  // Zero: unset (tf2 reads it as "latest"; a scan stamped 0 would clear every buffer as a jump back).
-  EXPECT_NE(std::string(stampFault(0u, 0u, now)).find("zero"), std::string::npos);
-  EXPECT_NE(stampFault(0u, 0u, 0), nullptr);
-  EXPECT_EQ(stampFault(0u, 1u, now), nullptr);
-  // Ahead: up to tf2's cache length (10 s), not 1 ns more.
-  EXPECT_EQ(stampFault(1796013965u, 944403171u, now), nullptr);
-  EXPECT_NE(std::string(stampFault(1796013965u, 944403172u, now)).find("ahead"), std::string::npos);
-  EXPECT_NE(stampFault(1796013955u + 1000000000u, 0u, now), nullptr);  // the /tf that poisoned tf2's cache
-  // Behind: any amount up to 2^31 s (bags, a clock that jumped forward).
-  EXPECT_EQ(stampFault(1796013955u - 100000u, 0u, now), nullptr);
-  // Static transforms are timeless: zero and far ahead are fine, a non-normalised stamp is not.
-  EXPECT_EQ(stampFault(0u, 0u, now, StampUse::kStaticTransform), nullptr);
-  EXPECT_EQ(stampFault(4294967295u, 999999999u, now, StampUse::kStaticTransform), nullptr);
-  EXPECT_NE(stampFault(5u, 1000000000u, now, StampUse::kStaticTransform), nullptr);
-}
-
-TEST(InputChecks, FrameIdsForTf2)
-{
-  bool stripped = true;
-  EXPECT_EQ(tf2FrameId("laser", stripped), "laser");
-  EXPECT_FALSE(stripped);
-  EXPECT_EQ(tf2FrameId("/laser", stripped), "laser");
-  EXPECT_TRUE(stripped);
-  EXPECT_EQ(tf2FrameId("/", stripped), "");  // empty: malformed
-  EXPECT_EQ(tf2FrameId("", stripped), "");
-  EXPECT_FALSE(stripped);
-}
-
 TEST(InputChecks, TimeIncrementSpanningMinutesIsMalformed)
 {
   Scan s{ std::vector<float>(360, 1.0f), {} };
@@ -592,23 +546,6 @@ TEST(OutputModes, NonFiniteValuesPerOption)
 }
 
 // ---------------------------------------------------------------- geometry
-
-TEST(FastMath, Atan2WellUnderHalfABin)
-{
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<float> d(-50.0f, 50.0f);
-  double worst = 0.0;
-  for (int i = 0; i < 200000; ++i)
-  {
-    const float x = d(rng), y = d(rng);
-    worst = std::max(worst, std::abs(static_cast<double>(fastAtan2(y, x)) - std::atan2((double)y, (double)x)));
-  }
-  for (float a = -3.14159f; a < 3.1416f; a += 0.001f)
-    worst = std::max(worst, std::abs(static_cast<double>(fastAtan2(std::sin(a), std::cos(a))) - a));
-  EXPECT_LT(worst, 1e-5);  // half of an output beam is 2.2e-3 rad
-  EXPECT_EQ(fastAtan2(0.0f, 0.0f), 0.0f);
-  EXPECT_NEAR(fastAtan2(0.0f, -1.0f), kPi, 1e-6);
-}
 
 TEST(Transform, RearLidarYawPi)
 {

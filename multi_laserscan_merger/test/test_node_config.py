@@ -2,6 +2,7 @@
 ROS_HOME / ROS_LOG_DIR): the shipped YAML starts; bad configurations stop the node at
 start-up with the parameter's name and a non-zero exit (and the nodelet reports FATAL and
 does nothing); a malformed scan is dropped with a message naming the source and the fault."""
+import json
 import os
 import signal
 import socket
@@ -136,6 +137,21 @@ def node_output_after_one_message(env, name, yaml_text, topic, msg_type, msg):
     return alive, out
 
 
+def node_output_with_feed(env, name, yaml_text, feed_script, *feed_args):
+    """Starts the node, runs the feed script (rospy) to its end, stops the node: (still alive before
+    the stop, the feed's CompletedProcess, the node's output)."""
+    set_params(env, name, yaml_text)
+    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name],
+                         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    time.sleep(1.0)
+    feed = subprocess.run(['/usr/bin/python3', '-c', feed_script, *feed_args], env=env, capture_output=True,
+                          text=True, timeout=60)
+    alive = p.poll() is None
+    p.send_signal(signal.SIGINT)
+    out, _ = p.communicate(timeout=20)
+    return alive, feed, out
+
+
 def test_malformed_scan_is_reported(ros_env):
     alive, out = node_output_after_one_message(
         ros_env, 'merger_m', 'odom_topic: ""\nsources: [{name: front, topic: m/scan}]', '/m/scan',
@@ -164,6 +180,64 @@ def test_infinite_transform_is_ignored(ros_env):
         'transform: {translation: {x: .inf}, rotation: {w: 1.0}}}]}')
     assert alive, out
     assert "transform 'base_link' -> 'lidar'" in out and 'not finite' in out, out
+
+
+TF_CONFLICT_FEED = r"""
+import json, math, sys, time, rospy
+from geometry_msgs.msg import TransformStamped
+from sensor_msgs.msg import LaserScan
+from tf2_msgs.msg import TFMessage
+rospy.init_node('tf_conflict_feed')
+tf = rospy.Publisher('/tf', TFMessage, queue_size=10)
+tf_static = rospy.Publisher('/tf_static', TFMessage, queue_size=10, latch=True)
+scan = rospy.Publisher('/tc/scan', LaserScan, queue_size=10)
+nearest = []
+rospy.Subscriber('/merged_scan', LaserScan,
+                 lambda m: nearest.append(min((r for r in m.ranges if math.isfinite(r)), default=-1.0)))
+time.sleep(1.5)
+def transform(parent, child, stamp, x=0.0, w=1.0):
+    t = TransformStamped()
+    t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, parent, child
+    t.transform.translation.x, t.transform.rotation.w = x, w
+    return t
+tf_static.publish(TFMessage([transform('base_link', 'lidar', rospy.Time(0), x=1.0)]))
+time.sleep(0.5)
+for i in range(20):
+    now = rospy.Time.now()
+    # The lidar's mount again on /tf, 2 m behind: in tf2 it would replace the static one. And what
+    # tf2 refuses itself, but with an error per message: a frame its own parent, a zero rotation.
+    tf.publish(TFMessage([transform('base_link', 'lidar', now, x=-1.0), transform('base_link', 'base_link', now),
+                          transform('base_link', 'tilted', now, w=0.0)]))
+    time.sleep(0.02)
+    s = LaserScan()
+    s.header.stamp, s.header.frame_id = now, 'lidar'
+    s.angle_min, s.angle_max, s.angle_increment = -0.1, 0.1, 0.05
+    s.range_max, s.ranges = 10.0, [2.0] * 5
+    scan.publish(s)
+    time.sleep(0.08)
+time.sleep(0.5)
+print(json.dumps(nearest))
+"""
+
+
+def test_faulty_and_conflicting_transforms_are_named_once_and_the_static_mount_stays(ros_env):
+    # tf2 logs a frame that is its own parent or a rotation that is not a unit quaternion without
+    # throttle; and a /tf transform of a frame that /tf_static holds replaces the static one for
+    # good in tf2 (the lidar 1 m ahead of base_link would move 2 m back). The merger ignores both,
+    # naming each frame pair once per 5 s.
+    alive, feed, out = node_output_with_feed(
+        ros_env, 'merger_tf_conflict', 'odom_topic: ""\nsources: [{name: lidar, topic: tc/scan, timeout: 0.5}]',
+        TF_CONFLICT_FEED)
+    assert alive, out
+    assert feed.returncode == 0, feed.stderr
+    nearest = json.loads(feed.stdout.strip().splitlines()[-1])
+    # Every merged scan sees the wall 2 m ahead of the static mount (3 m), none from the /tf one (1 m).
+    assert len(nearest) >= 10 and all(abs(r - 3.0) < 0.05 for r in nearest), (nearest, out)
+    assert "transform 'base_link' -> 'lidar' from /tf_conflict_feed on /tf" in out, out
+    assert "static transform (from /tf_static)" in out and "own parent" in out and "unit quaternion" in out, out
+    for pair in ("'base_link' -> 'lidar'", "'base_link' -> 'base_link'", "'base_link' -> 'tilted'"):
+        assert out.count(pair) == 1, (pair, out)  # throttled
+    assert "TF_" not in out, out  # tf2 never saw them
 
 
 def test_missing_transform_is_reported(ros_env):
@@ -224,15 +298,8 @@ sys.stdout.flush()
 
 
 def test_unusable_odometry_is_named(ros_env):
-    set_params(ros_env, 'merger_o', 'odom_topic: o/odom\nsources: [{name: front, topic: o/scan}]')
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_o'],
-                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(1.0)
-    feed = subprocess.run(['/usr/bin/python3', '-c', BAD_ODOM_FEED], env=ros_env, capture_output=True, text=True,
-                          timeout=60)
-    alive = p.poll() is None
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
+    alive, feed, out = node_output_with_feed(
+        ros_env, 'merger_o', 'odom_topic: o/odom\nsources: [{name: front, topic: o/scan}]', BAD_ODOM_FEED)
     assert alive, out
     assert int(feed.stdout.split()[-1]) >= 10, feed.stdout + feed.stderr  # merged without motion compensation
     assert 'zero quaternion ignored' in out and "none of the" in out and 'odometry messages' in out, out
@@ -391,16 +458,9 @@ def test_zero_and_far_ahead_stamps_are_malformed(ros_env, bad):
     # A scan stamped 0 used to clear every buffer (a "jump back") and give a merged scan stamped 0;
     # a /tf transform stamped far ahead used to poison tf2's cache: every later, valid transform
     # of that frame was refused as too old and the source disappeared without a word.
-    name = 'merger_stamp_' + bad
-    set_params(ros_env, name, 'odom_topic: ""\nsources: [{name: lidar, topic: s/scan, timeout: 0.5}]')
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name],
-                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(1.0)
-    feed = subprocess.run(['/usr/bin/python3', '-c', STAMP_FEED, bad], env=ros_env, capture_output=True, text=True,
-                          timeout=60)
-    alive = p.poll() is None
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
+    alive, feed, out = node_output_with_feed(
+        ros_env, 'merger_stamp_' + bad, 'odom_topic: ""\nsources: [{name: lidar, topic: s/scan, timeout: 0.5}]',
+        STAMP_FEED, bad)
     assert alive, out
     counts = dict(line.split() for line in feed.stdout.splitlines() if line.startswith(('zero_stamped', 'after')))
     assert counts.get('zero_stamped') == '0', feed.stdout + feed.stderr + out

@@ -1,6 +1,7 @@
 // bag_to_rawlog: the LaserScans of one topic of a ROS 1 bag, with the wheel odometry and the
 // sensor mounts from tf, as an MRPT rawlog of action/observation pairs (what rbpf-slam and
 // pf-localization read). See the package README for the options and the conventions.
+#include "laserscan_common/message_checks.hpp"
 #include "scan_evaluation_tools/odometry_track.hpp"
 
 #include <mrpt/io/CFileGZOutputStream.h>
@@ -125,11 +126,6 @@ double yawOf(const geometry_msgs::Quaternion& q)
   return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
 }
 
-std::string stripSlash(const std::string& frame)
-{
-  return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
-}
-
 /// MRPT's scan convention: N beams spread evenly over `aperture`, symmetric around the
 /// sensor's x axis; ROS's: beam i at angle_min + i * angle_increment. The observation's sensor
 /// pose is therefore the mount turned by the scan's middle angle.
@@ -182,7 +178,11 @@ int run(const Options& o)
   // One pass: mounts, odometry, scans (sorted by stamp afterwards: bag order is arrival order).
   std::vector<std::pair<double, Pose2D>> odometry;
   std::vector<sensor_msgs::LaserScan::ConstPtr> scans;
+  // The nodes' rules for /tf, with the time the bag recorded a message as the clock.
+  laserscan_common::TransformGate tf_gate;
+  const auto tf_max_ahead = static_cast<std::int64_t>(tf.getCacheLength().toNSec());
   std::size_t malformed_tf = 0;
+  std::string last_tf_fault;
   rosbag::View view(bag, rosbag::TopicQuery({ "/tf_static", "/tf", o.odom_topic, o.scan_topic }));
   for (const rosbag::MessageInstance& m : view)
   {
@@ -206,13 +206,28 @@ int run(const Options& o)
       const bool is_static = m.getTopic() == "/tf_static";
       for (const auto& t : msg->transforms)
       {
-        try
+        std::string fault;
+        if (const char* f = tf_gate.fault(t, is_static, static_cast<std::int64_t>(m.getTime().toNSec()), tf_max_ahead))
         {
-          tf.setTransform(t, "bag", is_static);
+          fault = f;
         }
-        catch (const std::exception&)  // tf2's own, and ros::Time's range errors near 2^32 s
+        else
+        {
+          try
+          {
+            tf.setTransform(t, "bag", is_static);
+          }
+          catch (const std::exception& e)  // tf2's own, and ros::Time's range errors
+          {
+            fault = e.what();
+          }
+        }
+        if (!fault.empty())
         {
           ++malformed_tf;
+          last_tf_fault = "'" + t.header.frame_id + "' -> '" + t.child_frame_id + "' on " + m.getTopic() +
+                          " with stamp " + laserscan_common::stampText(t.header.stamp.sec, t.header.stamp.nsec) + ": " +
+                          fault;
         }
       }
     }
@@ -279,7 +294,8 @@ int run(const Options& o)
     mrpt::poses::CPose3D mount;
     try
     {
-      const auto t = tf.lookupTransform(o.base_frame, stripSlash(scan->header.frame_id), scan->header.stamp);
+      const auto t =
+        tf.lookupTransform(o.base_frame, laserscan_common::tf2FrameId(scan->header.frame_id), scan->header.stamp);
       const auto& q = t.transform.rotation;
       const auto& p = t.transform.translation;
       mount = mrpt::poses::CPose3D(mrpt::math::CQuaternionDouble(q.w, q.x, q.y, q.z), p.x, p.y, p.z);
@@ -315,7 +331,7 @@ int run(const Options& o)
   if (malformed_tf > 0)
   {
     std::cerr << "bag_to_rawlog: warning: " << malformed_tf
-              << " malformed transform(s) ignored (refused by tf2: e.g. a stamp near 2^32 s)\n";
+              << " malformed transform(s) ignored (the nodes' /tf rules), the last: " << last_tf_fault << "\n";
   }
   return written > 0 ? 0 : 1;
 }

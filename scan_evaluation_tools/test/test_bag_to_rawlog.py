@@ -191,6 +191,9 @@ def test_a_tf_stamp_near_2_to_the_32_is_skipped_with_a_warning(converted, tmp_pa
                          text=True, timeout=60)
     assert run.returncode == 0, run.stderr
     assert "warning: 1 malformed transform(s) ignored" in run.stderr, run.stderr
+    # Named as the nodes name it, against the time the bag recorded it.
+    assert "'base_link' -> 'junk' on /tf with stamp 4294967290.000000000" in run.stderr, run.stderr
+    assert "ahead of the clock" in run.stderr, run.stderr
     dump = subprocess.run([tool("rawlog_dump"), rawlog], capture_output=True, text=True, timeout=60, check=True)
     assert len(np.loadtxt(dump.stdout.splitlines(), ndmin=2)) == 94
 

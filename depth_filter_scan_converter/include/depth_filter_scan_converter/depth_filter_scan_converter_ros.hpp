@@ -12,13 +12,11 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/message_filter.h>
 
 #include <chrono>
 #include <cstdint>
 #include <deque>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -30,6 +28,8 @@
 #include "depth_filter_scan_converter/depth_image_view.hpp"
 #include "depth_filter_scan_converter/parameters.hpp"
 #include "depth_filter_scan_converter/projector.hpp"
+#include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/transform_reader.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -77,13 +77,6 @@ private:
   /// The lazy subscription's actions (its lock held).
   void subscribeInput();
   void unsubscribeInput();
-  /// Feeds /tf and /tf_static into tf_buffer_ instead of tf2_ros::TransformListener, which lets
-  /// a stamp near 2^32 s abort the process (tf2 adds its cache length to it) and stores
-  /// transforms with an infinite translation (tf2 refuses only NaN).
-  void addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static);
-  // Member functions, not lambdas: roscpp passes a lambda the message alone, without its publisher.
-  void tfArrived(const ros::MessageEvent<const tf2_msgs::TFMessage>& event) { addTransforms(event, false); }
-  void tfStaticArrived(const ros::MessageEvent<const tf2_msgs::TFMessage>& event) { addTransforms(event, true); }
   /// Both inputs: header checks, then into the tf filter.
   template <class M>
   void arrived(const boost::shared_ptr<const M>& message, const CameraInfo::ConstPtr& info,
@@ -118,7 +111,7 @@ private:
   int queue_size_;
 
   tf2_ros::Buffer tf_buffer_;
-  ros::Subscriber tf_sub_, tf_static_sub_;
+  std::unique_ptr<laserscan_common::TransformReader> tf_reader_;  // feeds tf_buffer_ from /tf and /tf_static
   message_filters::Subscriber<Cloud> cloud_sub_;
   std::unique_ptr<tf2_ros::MessageFilter<Cloud>> cloud_filter_;
   // Images wait for the camera_info of their stamp (ExactTime, queue_size frames), as
@@ -145,9 +138,7 @@ private:
   RateMeter rate_;
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0;
   std::string last_malformed_reason_, last_tf_reason_;
-  bool warned_slash_ = false;
-  std::mutex tf_warning_mutex_;  // tf callbacks may run beside processing (multi-threaded manager)
-  std::map<std::string, ros::WallTime> warned_transforms_;  // per parent -> child pair
+  laserscan_common::FrameIdNormaliser frame_id_;  // warns once about a leading '/'
   ros::WallTime warned_tf_, warned_late_, warned_intensity_, warned_info_;
   WarningThrottle warn_malformed_;
   ConverterDiagnostics diagnostics_;  // last: its timer may call diagnose() as soon as it exists

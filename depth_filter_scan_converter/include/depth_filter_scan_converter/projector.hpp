@@ -28,7 +28,7 @@ namespace depth_filter_scan_converter
 ///   most m + kClusterCap * std(m), instead of m: the closest of many noisy points of one
 ///   surface is biased short by about 3 std;
 /// - NaN / Inf points are skipped.
-/// Beam angles come from fastAtan2 (error < kFastAtan2MaxError) and the arithmetic is float, so
+/// Beam angles come from fastAtan2 (error < laserscan_common::kFastAtan2MaxError) and the arithmetic is float, so
 /// a point within a few micro-radians (or micrometres) of a border may land on either side.
 ///
 /// Not thread-safe: the object keeps its work buffers between calls to avoid allocations.

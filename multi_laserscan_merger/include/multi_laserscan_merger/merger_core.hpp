@@ -40,37 +40,6 @@ constexpr double kMaxScanDuration = 60.0;
 /// (no allocation: also called on the hot path).
 const char* scanFault(const ScanView& scan);
 
-/// Largest distance (ns) between a message stamp and the node's clock: the largest ros::Duration
-/// (2^31 s - 1 ns). A stamp farther away makes every `stamp - now` (in the merger, in tf2, in
-/// consumers) throw "Duration is out of dual 32-bit range".
-constexpr std::int64_t kMaxClockOffsetNs = 2147483647LL * 1000000000LL + 999999999LL;
-
-/// Largest distance (ns) a scan, odometry or dynamic transform may be stamped ahead of the clock:
-/// tf2's cache length (10 s). A /tf transform farther ahead would make tf2 refuse every later,
-/// valid one as too old (TF_OLD_DATA) and the source would silently disappear; a scan or odometry
-/// farther ahead would hold the output's stamp in the future.
-constexpr std::int64_t kMaxStampAheadNs = 10LL * 1000000000LL;
-
-/// What a stamp dates: a measurement (scan, odometry, /tf) or a timeless static transform.
-enum class StampUse
-{
-  kMeasurement,
-  kStaticTransform,
-};
-
-/// nullptr when a message stamp (ROS's sec and nsec) is usable against the clock now_ns (integer
-/// nanoseconds), otherwise a static description of the fault. Every stamp needs nsec < 1e9. A
-/// measurement must not be zero (unset; tf2 reads Time(0) as "the latest"), nor more than
-/// kMaxStampAheadNs ahead of the clock (unless the clock is 0: sim time before the first /clock,
-/// when only the 2^31 s bound can be checked), nor more than 2^31 s behind it. A static transform
-/// is timeless: any normalised stamp.
-const char* stampFault(std::uint32_t sec, std::uint32_t nsec, std::int64_t now_ns,
-                       StampUse use = StampUse::kMeasurement);
-
-/// A frame id as tf2 wants it: without the leading '/' of tf1-era drivers and bags ("/laser"
-/// -> "laser"). `stripped` tells whether a slash was removed. An empty result is malformed.
-std::string tf2FrameId(const std::string& frame_id, bool& stripped);
-
 /// True when the point (x, y) lies inside the polygon (crossing number; any simple polygon).
 bool insidePolygon(const std::vector<std::array<double, 2>>& polygon, double x, double y);
 

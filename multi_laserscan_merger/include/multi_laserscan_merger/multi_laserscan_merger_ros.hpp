@@ -11,9 +11,10 @@
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
-#include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/buffer.h>
 
+#include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/transform_reader.hpp"
 #include "multi_laserscan_merger/merger_core.hpp"
 
 namespace multi_laserscan_merger
@@ -46,7 +47,7 @@ private:
     std::string pending_frame;                 ///< its frame id as tf2 wants it
     ros::WallTime pending_since;
     std::string pending_error;
-    bool slash_reported = false;  ///< a leading '/' in frame_id was reported (once per source)
+    laserscan_common::FrameIdNormaliser frame_id;  ///< reports a leading '/' once per source
     // Diagnostics.
     std::size_t received = 0, received_at_last_report = 0;
     std::size_t timeouts = 0, transform_failures = 0, malformed = 0;
@@ -59,11 +60,6 @@ private:
   void scanCallback(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg);
   void handleScan(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg);
   void odomCallback(const nav_msgs::Odometry::ConstPtr& msg);
-  /// Feeds /tf and /tf_static into tf_buffer_ (instead of tf2_ros::TransformListener, whose
-  /// callback lets tf2 throw on a stamp near 2^32 s and takes the process down).
-  void addTransforms(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static);
-  void tfCallback(const ros::MessageEvent<const tf2_msgs::TFMessage>& event) { addTransforms(event, false); }
-  void tfStaticCallback(const ros::MessageEvent<const tf2_msgs::TFMessage>& event) { addTransforms(event, true); }
   void handleOdometry(const nav_msgs::Odometry::ConstPtr& msg);
   void timerCallback(const ros::TimerEvent&);
 
@@ -92,7 +88,7 @@ private:
   std::mutex mutex_;
 
   tf2_ros::Buffer tf_buffer_;
-  ros::Subscriber tf_sub_, tf_static_sub_;
+  std::unique_ptr<laserscan_common::TransformReader> tf_reader_;  ///< feeds tf_buffer_ from /tf and /tf_static
   std::vector<SourceState> sources_;
   OdometryBuffer odom_;
   std::string odom_topic_;  ///< resolved, for messages
@@ -101,7 +97,7 @@ private:
   ros::WallTime last_odom_arrival_;
   std::size_t odom_received_ = 0, odom_rejected_ = 0;
   std::string odom_last_rejection_;
-  bool odom_slash_reported_ = false;
+  laserscan_common::FrameIdNormaliser odom_child_frame_id_;  ///< reports a leading '/' once
 
   std::vector<SourceInput> inputs_;  ///< reused across merges
   std::vector<SourceStatus> status_;

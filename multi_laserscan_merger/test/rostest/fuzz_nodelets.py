@@ -3,7 +3,8 @@
 
 A converter and a merger nodelet share one manager (fuzz_pipeline.launch). Each burst sends
 seeded malformed clouds (to the converter), scans (to the merger's lidar source), odometry
-and tf (laserscan_toolbox.fuzz_inputs), while the camera's mount is published on /tf at 50 Hz; then a
+and tf (laserscan_toolbox.fuzz_inputs; and /tf transforms of the lidar's static mount, 5 m off,
+which must not replace it), while the camera's mount is published on /tf at 50 Hz; then a
 valid cloud and a valid lidar scan must each give a correct output within ~max_latency
 seconds, stamped exactly as the valid input (bit for bit).
 Every scan either node publishes is checked (length against the angles, no finite range
@@ -132,12 +133,16 @@ class NodeFuzz(unittest.TestCase):
                 elif kind < 0.95:
                     msg, case = fz.malformed_odometry(rng, "odom", "base_link", now)
                     p.odom_pub.publish(msg)
-                else:
-                    # Only for the camera, whose mount comes again 20 ms later: tf2 keeps an infinite
-                    # translation (it refuses NaN only), and a /tf message for a static frame
-                    # replaces its static transform for good (see docs/robustness.md).
+                elif kind < 0.975:
                     msg, case = fz.malformed_tf(rng, "base_link", "camera", now)
                     tf_pub.publish(msg)
+                else:
+                    # A well-formed /tf transform of the lidar's static mount, 5 m off: in tf2 it
+                    # would replace the static transform for good; the nodes ignore it.
+                    conflict = mount_transforms(["lidar"], now)
+                    conflict[0].transform.translation.x += 5.0
+                    tf_pub.publish(TFMessage(conflict))
+                    case = "tf/static_conflict"
                 counts[case] += 1
                 time.sleep(0.002)  # let the nodes take most of them (their queues are short)
             # tf2 interpolates the camera's mount at the valid cloud's stamp from the samples

@@ -1,20 +1,23 @@
-// Branch-free float atan2 approximation used to map points to beams (ROS-free).
+// Small math kernels of the hot paths (ROS-free): the one fast atan2 both nodes map points to
+// beams with.
 #pragma once
 
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
 
-namespace depth_filter_scan_converter
+namespace laserscan_common
 {
-/// Largest error of fastAtan2 against std::atan2, in radians, with margin for float
-/// rounding (the polynomial alone stays under 1.7e-6). Tests check this bound; it is
-/// far below half a beam for any sensible angle_increment.
+
+/// Largest error of fastAtan2 against std::atan2, in radians, with margin for float rounding (the
+/// polynomial alone stays under 1.8e-6). Tests check this bound; it is far below half a beam for
+/// any sensible angle_increment (half the merger's default beam is 2.2e-3 rad).
 constexpr float kFastAtan2MaxError = 4e-6f;
 
-/// atan2(y, x) in [-pi, pi]. An odd degree-11 polynomial, least-squares fitted to atan on
-/// [0, 1] (Chebyshev nodes, error-weighted), after reducing to the first octant. One
-/// division, no library call; the selects compile to blends, so there is no branch.
+/// atan2(y, x) in [-pi, pi]; (0, 0) gives 0. An odd degree-11 polynomial, least-squares fitted
+/// (this project; Chebyshev nodes, error-weighted) to atan on [0, 1], after reducing to the first
+/// octant. One division, no library call; the selects compile to blends, so there is no branch
+/// and loops calling this vectorise.
 inline float fastAtan2(float y, float x)
 {
   const float ax = std::fabs(x);
@@ -22,7 +25,7 @@ inline float fastAtan2(float y, float x)
   const float mx = std::max(ax, ay);
   const float mn = std::min(ax, ay);
   // mx == 0 only at the origin: 0 / FLT_MIN = 0, as std::atan2(0, 0). No branch around the
-  // division, so that loops calling this vectorize.
+  // division.
   const float a = mn / std::max(mx, FLT_MIN);
   const float s = a * a;
   float r = 0.9999772310256958f +
@@ -35,4 +38,4 @@ inline float fastAtan2(float y, float x)
   return y < 0.0f ? -r : r;
 }
 
-}  // namespace depth_filter_scan_converter
+}  // namespace laserscan_common
