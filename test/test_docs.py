@@ -5,10 +5,13 @@ READMEs must be in COMMANDS below, which names the test or script that runs it (
 is only checked here). Every command is also checked cheaply: a script exists, is executable and
 its options appear in its --help; the packages, files, launch files, rostest files, build
 targets and executables it names exist; `name:=value` arguments exist in the launch file.
-Launch includes in XML blocks and every relative link (with its #anchor) are checked too.
+Launch includes in XML blocks, files named in the prose and every relative link (with its
+#anchor) are checked too, and the package READMEs' parameter tables (name, type, unit, default)
+and launch argument tables against check_config's schema and the launch files.
 """
 import functools
 import glob
+import math
 import os
 import re
 import shlex
@@ -494,6 +497,123 @@ def test_relative_links_resolve():
                     problems.append(where + ": no such file")
                 elif anchor and resolved.endswith(".md") and anchor not in anchors(resolved):
                     problems.append(where + ": no heading with that anchor")
+    assert not problems, "\n".join(problems)
+
+
+# --- parameter tables against check_config's schema (itself tied to the C++ structs) -----------
+
+def config_schema():
+    sys.path.insert(0, os.path.join(REPO, "scripts"))
+    import importlib
+    for name in ("laserscan_toolbox.config_check", "laserscan_toolbox.evaluation.config_check"):
+        try:
+            return importlib.import_module(name)
+        except ImportError:
+            continue
+    pytest.fail("laserscan_toolbox's config_check module not found")
+
+
+def parameter_table(readme, section, first_column="parameter", nth=0):
+    """{name: (type, unit, default)} of the nth table headed `first_column` in `section`."""
+    with open(os.path.join(REPO, readme), encoding="utf-8") as f:
+        text = f.read()
+    start = text.index(section)
+    tables = [m.start() for m in re.finditer(r"^\| %s \| type \| unit \| default \| meaning \|$" % first_column,
+                                             text[start:], re.M)]
+    assert len(tables) > nth, "%s: no '%s' table after %r" % (readme, first_column, section)
+    rows = {}
+    for line in text[start + tables[nth]:].split("\n")[2:]:
+        if not line.startswith("|"):
+            break
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        names = re.findall(r"`(\w+)`", cells[0])
+        defaults = [d.strip() for d in cells[3].split(",")] if len(names) > 1 else [cells[3]]
+        for name, default in zip(names, defaults if len(defaults) == len(names) else defaults * len(names)):
+            rows[name] = (cells[1], cells[2], default)
+    return rows
+
+
+def parse_default(cell):
+    if cell.startswith("(required"):
+        return None
+    text = re.sub(r"\s*\(.*\)$", "", cell.replace("`", "")).strip()
+    words = {"pi": math.pi, "-pi": -math.pi, "pi/720": math.pi / 720, "+inf": math.inf, ".inf": math.inf,
+             "true": True, "false": False, '""': "", "[]": []}
+    if text in words:
+        return words[text]
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+TYPES = {"float": "double", "int": "int", "whole": "int", "bool": "bool", "str": "string", "polygon": "list of `[x, y]`"}
+
+
+@pytest.mark.parametrize("readme, section, column, nth, schema", [
+    ("depth_filter_scan_converter/README.md", "## Depth converters", "parameter", 0, "CONVERTER"),
+    ("depth_filter_scan_converter/README.md", "## range_scan_converter", "parameter", 0, "RANGE"),
+    ("multi_laserscan_merger/README.md", "### Parameters", "parameter", 0, "MERGER"),
+    ("multi_laserscan_merger/README.md", "### Parameters", "key", 0, "SOURCE"),
+])
+def test_parameter_tables_match_the_schema(readme, section, column, nth, schema):
+    keys = getattr(config_schema(), schema)
+    table = parameter_table(readme, section, column, nth)
+    problems = ["%s: not in the README's table" % k for k in keys if k not in table]
+    problems += ["%s: in the README, not in check_config's schema" % k for k in table if k not in keys]
+    for name, key in keys.items():
+        if key is None or name not in table:
+            continue
+        kind, unit, default = table[name]
+        if kind != TYPES[key.kind]:
+            problems.append("%s: type %s, schema says %s" % (name, kind, key.kind))
+        if key.unit and unit != key.unit:
+            problems.append("%s: unit %r, schema says %r" % (name, unit, key.unit))
+        value = parse_default(default)
+        same = value == key.default or (isinstance(value, float) and isinstance(key.default, (int, float))
+                                        and not isinstance(key.default, bool)
+                                        and math.isclose(value, key.default, rel_tol=1e-6))
+        if not same:
+            problems.append("%s: default %s, schema says %r" % (name, default, key.default))
+    assert not problems, "%s %s:\n  %s" % (readme, schema, "\n  ".join(problems))
+
+
+def launch_user_args(path):
+    """Arguments a user can set: those with a default, or with neither default nor value."""
+    with open(path, encoding="utf-8") as f:
+        tags = re.findall(r"<arg\s[^>]*>", f.read())
+    return {re.search(r'name="([^"]+)"', t).group(1) for t in tags if 'value="' not in t}
+
+
+def test_launch_argument_tables_match_the_launch_files():
+    """A package README's `| argument |` table lists exactly the user arguments of the launch
+    file named last before it, with their defaults."""
+    problems = []
+    for package in sorted(packages()):
+        readme = os.path.join(REPO, package, "README.md")
+        with open(readme, encoding="utf-8") as f:
+            text = f.read()
+        for table in re.finditer(r"^\| argument \| default \| meaning \|\n\|[-|]+\|\n((?:\|.*\n)+)", text, re.M):
+            launch = re.findall(r"`(launch/[\w.]+\.launch)`", text[:table.start()])[-1]
+            path = os.path.join(REPO, package, launch)
+            with open(path, encoding="utf-8") as f:
+                source = f.read()
+            documented = set()
+            for row in table.group(1).strip().split("\n"):
+                cells = [c.strip() for c in row.strip().strip("|").split("|")]
+                names = re.findall(r"`(\w+)`", cells[0])
+                defaults = re.findall(r"`([^`]*)`", cells[1])
+                documented |= set(names)
+                for name, default in zip(names, defaults if len(defaults) == len(names) else []):
+                    found = re.search(r'<arg\s+name="%s"\s+default="([^"]*)"' % name, source)
+                    if not found:
+                        problems.append("%s: %s has no argument %s with a default" % (package, launch, name))
+                    elif not (found.group(1).endswith("/" + default) if "/" in default
+                              else found.group(1) == default):  # paths are written from the package
+                        problems.append("%s: %s's %s defaults to %s, the README says %s"
+                                        % (package, launch, name, found.group(1), default))
+            missing = launch_user_args(path) - documented
+            problems += ["%s: %s's argument %s is not in the README's table" % (package, launch, a) for a in missing]
     assert not problems, "\n".join(problems)
 
 
