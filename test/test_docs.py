@@ -93,7 +93,7 @@ COMMANDS = {
     "rostest multi_laserscan_merger fuzz_nodelets.test": "multi_laserscan_merger/CMakeLists.txt",
     "rostest multi_laserscan_merger fault_recovery.test": "multi_laserscan_merger/CMakeLists.txt",
     "cmake --build build --target depth_filter_scan_converter_fuzz_test multi_laserscan_merger_fuzz_test":
-        "scripts/test",
+        "depth_filter_scan_converter/CMakeLists.txt",
     "build/devel/lib/depth_filter_scan_converter/depth_filter_scan_converter_fuzz_test":
         "depth_filter_scan_converter/CMakeLists.txt",
     "FUZZ_SEED=7 FUZZ_CASES=1000000 build/devel/lib/multi_laserscan_merger/multi_laserscan_merger_fuzz_test":
@@ -368,6 +368,27 @@ def test_the_table_lists_only_documented_commands():
     assert not stale, "COMMANDS entries no doc shows any more:\n  " + "\n  ".join(stale)
 
 
+def subject(command):
+    """The word a runner must mention to run `command`: the script, launch file, test file,
+    executable or build target it is about."""
+    words = [w for w in shlex.split(command, comments=True) if not re.match(r"^[A-Z_]+=", w)]
+    if words[0] == "taskset":
+        words = words[3:]
+    program, args = words[0], [w for w in words[1:] if not w.startswith("-")]
+    if program in ("rostest", "rosrun"):
+        name = args[1]
+    elif program in ("roslaunch", "source"):
+        name = args[-1] if program == "source" else args[0] if args[0].endswith(".launch") else args[1]
+    elif program == "cmake":
+        name = words[words.index("--target") + 1]
+        name = "run_tests" if name.startswith("run_tests") else name
+    elif program == "/usr/bin/python3":
+        name = "pytest" if words[1:3] == ["-m", "pytest"] else args[0]
+    else:
+        name = program
+    return re.sub(r"\.(launch|test)$", "", os.path.basename(name))
+
+
 def test_runners_exist_and_run_the_program():
     problems = []
     for command, runner in COMMANDS.items():
@@ -379,15 +400,7 @@ def test_runners_exist_and_run_the_program():
             continue
         with open(path, encoding="utf-8", errors="replace") as f:
             text = f.read().replace("${PROJECT_NAME}", runner.split("/")[0])
-        program = [t for t in shlex.split(command) if not re.match(r"^[A-Z_]+=", t) and t != "taskset"][0]
-        name = os.path.basename(program)
-        words = shlex.split(command)
-        if name in ("roslaunch", "rostest", "rosrun", "cmake", "python3", "source"):
-            name = os.path.basename([w for w in words[1:] if not w.startswith("-")][-1 if name == "source" else 1
-                                                                                     if name in ("rostest", "rosrun")
-                                                                                     else 0])
-        if name.endswith(".launch") or name.endswith(".test"):
-            name = name.rsplit(".", 1)[0]
+        name = subject(command)
         if name not in text and name.replace("_", "-") not in text:
             problems.append("%s: %s does not mention %s" % (command, runner, name))
     assert not problems, "\n".join(problems)
