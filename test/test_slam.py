@@ -147,15 +147,15 @@ def test_localization_rmse_of_the_particle_mean():
 def results(rmse_l=0.05, rmse_u=0.06, prec=0.95, f3l=0.1, f3u=0.3, loc_l=0.05, loc_u=0.06):
     return {"slam": {"/lidar_scan": {"path_rmse_m": rmse_l, "map_precision": 0.97,
                                      "obstacles_3d_found": f3l},
-                     "/merged_scan": {"path_rmse_m": rmse_u, "map_precision": prec,
+                     "/slam_scan": {"path_rmse_m": rmse_u, "map_precision": prec,
                                       "obstacles_3d_found": f3u}},
-            "localization": {"/lidar_scan": {"rmse_m": loc_l}, "/merged_scan": {"rmse_m": loc_u}}}
+            "localization": {"/lidar_scan": {"rmse_m": loc_l}, "/slam_scan": {"rmse_m": loc_u}}}
 
 
 def test_targets_pass_and_fail_on_the_right_figures():
     assert all(ok for ok, _ in slam.check_targets(results()))
     cases = {"/lidar_scan path_rmse_m": results(rmse_l=0.2),
-             "/merged_scan path_rmse_m": results(rmse_u=0.11),
+             "/slam_scan path_rmse_m": results(rmse_u=0.11),
              "map_precision": results(prec=0.85),
              "obstacles_3d_found": results(f3u=0.19),
              "localization": results(loc_u=0.071)}

@@ -1,7 +1,8 @@
 """Real 2D SLAM and localization on recorded scan streams (the paper's Fig. 6 with a SLAM).
 
-For each scan topic (e.g. the lidar-only merge ``/lidar_scan`` and the unified scan
-``/merged_scan``) recorded while a simulated bag played through the pipeline:
+For each scan topic (e.g. the lidar-only merge ``/lidar_scan`` and the unified scan of
+lidars and depth cameras ``/slam_scan``) recorded while a simulated bag played through the
+pipeline:
 
 1. the scans, the bag's ``/odom`` and ``/tf_static`` go into a small bag, which
    ``bag_to_rawlog`` (package scan_evaluation_tools) turns into an MRPT rawlog of
@@ -31,8 +32,10 @@ import numpy as np
 
 from . import mapping
 
-#: Which topics the experiment compares: (lidar-only stream, unified stream).
-DEFAULT_TOPICS = ("/lidar_scan", "/merged_scan")
+#: Which topics the experiment compares: (lidar-only stream, unified stream). The unified
+#: stream is the lidars + depth cameras merge without the ultrasonic arcs (those go to the
+#: obstacle-avoidance output /merged_scan only: an arc is no measurement a scan matcher can use).
+DEFAULT_TOPICS = ("/lidar_scan", "/slam_scan")
 #: Tolerance of the map figures, m.
 MAP_TOLERANCE = 0.10
 #: Scans closer in time than this to the previous one are left out (both streams get the
