@@ -10,7 +10,8 @@ pipeline:
 2. ``rbpf-slam`` (MRPT's Rao-Blackwellised particle filter grid SLAM, gmapping's family;
    seeded, headless) builds a map and a path from it;
 3. the path and the map are brought into the ground truth's frame by the rigid 2D fit of
-   the estimated path to the true path (the SLAM's frame is its first pose), then:
+   the estimated path to the true path (the SLAM's frame is its first pose; the map, the
+   most likely particle's, by the fit of that particle's own path), then:
    path RMSE (and that of odometry alone, fitted the same way), map precision (occupied
    cells with a true obstacle within 0.10 m), recall (obstacle cells of the reference map
    with an occupied cell within 0.10 m) and the 3D obstacles found (``mapping.compare_maps``);
