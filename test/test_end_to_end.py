@@ -42,9 +42,12 @@ def evaluated(tmp_path_factory):
                      "--duration", str(DURATION), "--seed", "1"], 600)
     assert code == 0, out
     outdir = str(d / "out")
+    # The timeout only guards against a hang: the evaluation (playback, ground truth, three
+    # maps, two SLAM and two localization runs) took 405 s on the shared 2-core machine at a
+    # load of 4 to 7, and more than 600 s at a load of 15.
     code, log = run([os.path.join(SCRIPTS, "evaluate_bag"), bag, "--output", outdir,
                      "--save-scans", "--no-progress", "--max-median-error", "0.03", "--slam"],
-                    600)
+                    1500)
     with open(os.path.join(outdir, "results.json")) as f:
         results = json.load(f)
     scans = ev.load_scan_records(os.path.join(outdir, "scans.npz"))
