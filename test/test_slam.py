@@ -149,6 +149,18 @@ def test_map_path_is_the_most_likely_particles_at_the_map_updates():
         slam.read_map_path(most_likely[1:], times, path)
 
 
+def test_shipped_rbpf_config_updates_filter_and_map_together():
+    """read_map_path stamps the most likely particle's poses by the map updates: the shipped
+    rbpf-slam config must run the filter at exactly those steps."""
+    import configparser
+    ini = configparser.ConfigParser(inline_comment_prefixes=("#", ";"), strict=False)
+    ini.read(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..",
+                          "scan_evaluation_tools", "config", "rbpf_slam.ini"))
+    app = ini["MappingApplication"]
+    assert float(app["localizeLinDistance"]) == float(app["insertionLinDistance"])
+    assert float(app["localizeAngDistance_deg"]) == float(app["insertionAngDistance_deg"])
+
+
 class LoopScenario:
     """Drives around the room of room_refs: (1, 1) -> (5, 1) -> (5, 2) -> (1, 2), 1 m/s."""
     corners = np.array([[1.0, 1.0], [5.0, 1.0], [5.0, 2.0], [1.0, 2.0]])
