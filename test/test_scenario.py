@@ -200,7 +200,7 @@ REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 def test_pipeline_launch_nodes(standalone, expected_manager, depth_input):
     """launch/pipeline.launch parses (its configs pass check_config) and starts two
     converters (reading depth images, or with depth_input:=cloud the clouds of two
-    depth_image_proc nodelets) four range converters and two mergers, with one manager unless standalone.
+    depth_image_proc nodelets) four range converters and three mergers, with one manager unless standalone.
     Needs the workspace's devel/setup.bash sourced."""
     import subprocess
     out = subprocess.run(["roslaunch", "--nodes", os.path.join(REPO, "launch", "pipeline.launch"),
@@ -208,7 +208,8 @@ def test_pipeline_launch_nodes(standalone, expected_manager, depth_input):
                          capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     nodes = set(out.stdout.split())
-    for n in ("/camera_left_converter", "/camera_right_converter", "/merged_scan_merger", "/lidar_scan_merger"):
+    for n in ("/camera_left_converter", "/camera_right_converter", "/merged_scan_merger", "/slam_scan_merger",
+              "/lidar_scan_merger"):
         assert n in nodes
     for n in ("/camera_left_points", "/camera_right_points"):
         assert (n in nodes) == (depth_input == "cloud")
@@ -240,6 +241,12 @@ def test_sim_configs_match_the_simulated_robot():
     for src in merged["sources"]:
         if src["topic"] in sonar_scans:  # the arcs' reach is within the sensors' own limit
             assert 0.0 < src.get("range_max", math.inf) <= sc.robot.sonars[0].max_range
+    # The SLAM feed is the merged scan without the arcs, source for source (same masks, timeouts).
+    with open(os.path.join(REPO, "config", "sim_robot", "slam_scan.yaml")) as f:
+        slam_feed = yaml.safe_load(f)
+    assert slam_feed["sources"] == [s for s in merged["sources"] if s["topic"] not in sonar_scans]
+    assert {k: v for k, v in slam_feed.items() if k != "sources"} == \
+        {k: v for k, v in merged.items() if k != "sources"}
     assert {s["topic"] for s in lidar_only["sources"]} == {TOPICS["lidar_front"], TOPICS["lidar_rear"]}
     for src in lidar_only["sources"]:
         lidar = next(L for L in sc.robot.lidars if TOPICS[L.name] == src["topic"])

@@ -136,6 +136,82 @@ class LineScenario:
         return (float(t), 0.0, 0.0)
 
 
+def test_map_path_is_the_most_likely_particles_at_the_map_updates():
+    # rbpf-slam's files: the per-step mean path (stamp per step), log_times.txt (4th column:
+    # filter and map updated at this step), most_likely_path.txt (initial pose + one per update)
+    path = np.column_stack([100.0 + np.arange(6), np.arange(6.0), np.zeros(6), np.zeros(6)])
+    times = np.array([[k, 1.0, 1, u] for k, u in enumerate([1, 0, 1, 0, 0, 1])], float)
+    most_likely = np.array([[0, 0, 0], [0.01, 0, 0], [2.02, 0.1, 0.05], [5.03, 0.2, 0.1]])
+    mp = slam.read_map_path(most_likely, times, path)
+    np.testing.assert_allclose(mp[:, 0], [100.0, 102.0, 105.0])  # stamps of the update steps
+    np.testing.assert_allclose(mp[:, 1:], most_likely[1:])       # the initial pose left out
+    with pytest.raises(slam.SlamError, match="most_likely_path"):
+        slam.read_map_path(most_likely[1:], times, path)
+
+
+def test_shipped_rbpf_config_updates_filter_and_map_together():
+    """read_map_path stamps the most likely particle's poses by the map updates: the shipped
+    rbpf-slam config must run the filter at exactly those steps."""
+    import configparser
+    ini = configparser.ConfigParser(inline_comment_prefixes=("#", ";"), strict=False)
+    ini.read(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..",
+                          "scan_evaluation_tools", "config", "rbpf_slam.ini"))
+    app = ini["MappingApplication"]
+    assert float(app["localizeLinDistance"]) == float(app["insertionLinDistance"])
+    assert float(app["localizeAngDistance_deg"]) == float(app["insertionAngDistance_deg"])
+
+
+class LoopScenario:
+    """Drives around the room of room_refs: (1, 1) -> (5, 1) -> (5, 2) -> (1, 2), 1 m/s."""
+    corners = np.array([[1.0, 1.0], [5.0, 1.0], [5.0, 2.0], [1.0, 2.0]])
+
+    def true_pose(self, t):
+        d = np.r_[0.0, np.cumsum(np.hypot(*np.diff(self.corners, axis=0).T))]
+        i = min(int(np.searchsorted(d, t, side="right")) - 1, len(self.corners) - 2)
+        a, b = self.corners[i], self.corners[i + 1]
+        f = min(max((t - d[i]) / (d[i + 1] - d[i]), 0.0), 1.0)
+        x, y = a + f * (b - a)
+        return (float(x), float(y), math.atan2(*(b - a)[::-1]))
+
+
+def test_the_map_is_placed_by_its_own_particles_path_not_by_the_mean_path():
+    """rbpf-slam saves the most likely particle's map; the per-step path is the particles'
+    mean, which can be turned against it (the heading spread of the particles). Placed by
+    the mean path, a correct map looks turned (thick walls); placed by its own path it fits."""
+    refs, _, _ = room_refs()
+    theta, t = 0.4, np.array([0.5, -0.3])   # SLAM frame -> world: world = R(theta) p + t
+
+    def walls(x, y):
+        w = ((np.abs(x) < RES) | (np.abs(x - 6) < RES)) & (y > -RES) & (y < 3 + RES)
+        return w | (((np.abs(y) < RES) | (np.abs(y - 3) < RES)) & (x > -RES) & (x < 6 + RES))
+
+    p_occ, limits = slam_map_of(walls, theta, t)
+    sc = LoopScenario()
+    stamps = np.linspace(0.0, 9.0, 91)
+    true = np.array([sc.true_pose(s) for s in stamps])
+    own = (true[:, :2] - t) @ rot(theta)               # the particle's path, in the SLAM frame
+    c = own.mean(0)
+    turn = 6.0  # degrees: in this 6 m room as much as a degree or two in the 30 m shop floor
+    mean = (own - c) @ rot(math.radians(turn)).T + c   # the mean path, turned
+    path = np.column_stack([stamps, mean, true[:, 2] - theta])
+    updates = np.arange(0, 91, 5)
+    run = {"path": path, "map_path": np.column_stack([stamps[updates], own[updates],
+                                                      true[updates, 2] - theta]),
+           "map": p_occ, "limits": limits, "wall_s": 1.0}
+    index = np.column_stack([np.arange(91), stamps, true])
+    fig, _ = slam.evaluate_slam(run, index, sc, refs)
+    assert fig["map_precision"] > 0.99, fig
+    assert fig["map_path_rmse_m"] == pytest.approx(0.0, abs=1e-9)
+    assert fig["map_alignment_deg"] == pytest.approx(math.degrees(theta), abs=1e-6)
+    assert fig["alignment_deg"] == pytest.approx(math.degrees(theta) - turn, abs=1e-6)
+    # the same map placed by the mean path's fit: turned, walls off by up to 30 cm
+    r, th, tt = slam.aligned_rmse(mean, true[:, :2])
+    off = slam.ResampledMap(p_occ, limits, th, tt, refs)
+    f_off = mapping.compare_maps({"m": off}, refs["truth"], refs["plane"], refs["reference"],
+                                 tolerance_cells=2)["m"]
+    assert f_off["precision"] < 0.8, f_off
+
+
 def test_localization_rmse_of_the_particle_mean():
     index = np.column_stack([np.arange(5), np.arange(5.0), np.zeros((5, 3))])
     mean = np.column_stack([np.arange(5.0), [0.0, 0.1, -0.1, 0.1, -0.1], np.zeros(5)])
@@ -147,15 +223,15 @@ def test_localization_rmse_of_the_particle_mean():
 def results(rmse_l=0.05, rmse_u=0.06, prec=0.95, f3l=0.1, f3u=0.3, loc_l=0.05, loc_u=0.06):
     return {"slam": {"/lidar_scan": {"path_rmse_m": rmse_l, "map_precision": 0.97,
                                      "obstacles_3d_found": f3l},
-                     "/merged_scan": {"path_rmse_m": rmse_u, "map_precision": prec,
+                     "/slam_scan": {"path_rmse_m": rmse_u, "map_precision": prec,
                                       "obstacles_3d_found": f3u}},
-            "localization": {"/lidar_scan": {"rmse_m": loc_l}, "/merged_scan": {"rmse_m": loc_u}}}
+            "localization": {"/lidar_scan": {"rmse_m": loc_l}, "/slam_scan": {"rmse_m": loc_u}}}
 
 
 def test_targets_pass_and_fail_on_the_right_figures():
     assert all(ok for ok, _ in slam.check_targets(results()))
     cases = {"/lidar_scan path_rmse_m": results(rmse_l=0.2),
-             "/merged_scan path_rmse_m": results(rmse_u=0.11),
+             "/slam_scan path_rmse_m": results(rmse_u=0.11),
              "map_precision": results(prec=0.85),
              "obstacles_3d_found": results(f3u=0.19),
              "localization": results(loc_u=0.071)}

@@ -657,7 +657,7 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
              rate=1.0, progress=True, thresholds=None, threshold_topics=None,
              band=None, tol=0.05, beam_window=1, max_scans=300, plots=True, workdir=None,
              rel_tol=0.03,
-             log=print, map_topics=("/lidar_scan", "/merged_scan"), map_resolution=0.05,
+             log=print, map_topics=("/lidar_scan", "/slam_scan", "/merged_scan"), map_resolution=0.05,
              save_scans=False, slam=False, slam_targets=None, slam_seed=0):
     """Runs everything and writes results.json (+ report.md and plots when ``plots``).
 
@@ -778,7 +778,7 @@ def run_mapping(run, info, scenario, results, map_topics, outdir, resolution=0.0
     for t, d in run["records"].items():
         sc0 = d["scans"][0] if d.get("scans") else None
         if sc0 and sc0["frame"].lstrip("/") == BASE_FRAME and t not in map_topics \
-                and t not in ("/merged_scan", "/lidar_scan"):
+                and t not in ("/merged_scan", "/slam_scan", "/lidar_scan"):
             spans.append((sc0["angle_min"], sc0["angle_max"]))
     ideal, ideal_view, last = [], [], -1e18
     for s in streams[last_topic]:
@@ -906,9 +906,9 @@ def main(argv=None):
                    help="beams either side searched when matching ranges (default 1)")
     p.add_argument("--max-scans", type=int, default=300,
                    help="scans per topic compared with ground truth (evenly spaced)")
-    p.add_argument("--map-topics", nargs="*", default=["/lidar_scan", "/merged_scan"],
+    p.add_argument("--map-topics", nargs="*", default=["/lidar_scan", "/slam_scan", "/merged_scan"],
                    metavar="TOPIC", help="scan topics mapped at the true poses when the bag has "
-                   "ground truth (default: /lidar_scan /merged_scan; none to skip)")
+                   "ground truth (default: /lidar_scan /slam_scan /merged_scan; none to skip)")
     p.add_argument("--slam", action="store_true",
                    help="also run real 2D SLAM (MRPT rbpf-slam) and localization "
                    "(pf-localization on the ground-truth map) on the first two --map-topics "

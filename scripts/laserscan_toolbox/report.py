@@ -134,8 +134,9 @@ def slam_section(results):
     if "error" in exp or "skipped" in exp:
         return lines + ["Not run: %s" % exp.get("error", exp.get("skipped")), ""]
     lines += ["MRPT's `rbpf-slam` (Rao-Blackwellised particle filter grid SLAM, seed %d) on each "
-              "stream with the wheel odometry (one scan per %.1f s at most), its path and map "
-              "fitted to the ground truth by the rigid 2D fit of the paths; `pf-localization` "
+              "stream with the wheel odometry (one scan per %.1f s at most), its path fitted to "
+              "the ground truth by the rigid 2D fit of the paths, its map (the most likely "
+              "particle's) by that of the particle's own path; `pf-localization` "
               "on the ground-truth obstacle grid from the true initial pose (RMSE of the "
               "weighted particle mean). Method and reproduction: docs/slam.md." % (
                   exp["seed"], exp["min_interval_s"]), "", slam_table(results), "",

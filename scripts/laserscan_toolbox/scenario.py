@@ -45,7 +45,8 @@ TOPICS = {
     "tf_static": "/tf_static",
     "ground_truth": "/ground_truth/odom",
     "scenario": "/scenario",
-    "merged_scan": "/merged_scan",                          # lidars + cameras merger
+    "merged_scan": "/merged_scan",                          # lidars + cameras + sonar arcs merger
+    "slam_scan": "/slam_scan",                              # lidars + cameras merger (SLAM's feed)
     "lidar_scan": "/lidar_scan",                            # lidar-only merger
 }
 # Ultrasonic sensors: sensor_msgs/Range in, a LaserScan arc out (range converters).

@@ -1,7 +1,8 @@
 """Real 2D SLAM and localization on recorded scan streams (the paper's Fig. 6 with a SLAM).
 
-For each scan topic (e.g. the lidar-only merge ``/lidar_scan`` and the unified scan
-``/merged_scan``) recorded while a simulated bag played through the pipeline:
+For each scan topic (e.g. the lidar-only merge ``/lidar_scan`` and the unified scan of
+lidars and depth cameras ``/slam_scan``) recorded while a simulated bag played through the
+pipeline:
 
 1. the scans, the bag's ``/odom`` and ``/tf_static`` go into a small bag, which
    ``bag_to_rawlog`` (package scan_evaluation_tools) turns into an MRPT rawlog of
@@ -9,7 +10,8 @@ For each scan topic (e.g. the lidar-only merge ``/lidar_scan`` and the unified s
 2. ``rbpf-slam`` (MRPT's Rao-Blackwellised particle filter grid SLAM, gmapping's family;
    seeded, headless) builds a map and a path from it;
 3. the path and the map are brought into the ground truth's frame by the rigid 2D fit of
-   the estimated path to the true path (the SLAM's frame is its first pose), then:
+   the estimated path to the true path (the SLAM's frame is its first pose; the map, the
+   most likely particle's, by the fit of that particle's own path), then:
    path RMSE (and that of odometry alone, fitted the same way), map precision (occupied
    cells with a true obstacle within 0.10 m), recall (obstacle cells of the reference map
    with an occupied cell within 0.10 m) and the 3D obstacles found (``mapping.compare_maps``);
@@ -31,8 +33,10 @@ import numpy as np
 
 from . import mapping
 
-#: Which topics the experiment compares: (lidar-only stream, unified stream).
-DEFAULT_TOPICS = ("/lidar_scan", "/merged_scan")
+#: Which topics the experiment compares: (lidar-only stream, unified stream). The unified
+#: stream is the lidars + depth cameras merge without the ultrasonic arcs (those go to the
+#: obstacle-avoidance output /merged_scan only: an arc is no measurement a scan matcher can use).
+DEFAULT_TOPICS = ("/lidar_scan", "/slam_scan")
 #: Tolerance of the map figures, m.
 MAP_TOLERANCE = 0.10
 #: Scans closer in time than this to the previous one are left out (both streams get the
@@ -145,8 +149,10 @@ def convert(bag, topic, rawlog, index, min_interval=MIN_INTERVAL, log_path=None)
 
 def run_rbpf_slam(rawlog, workdir, seed=0, config=None, timeout=900):
     """rbpf-slam on a rawlog; returns {"path": (n, 4) stamp x y yaw of the filter's estimate
-    at every step, "map": P(occupied) array [row = y, col = x] of the most likely particle,
-    "limits": (x_min, x_max, y_min, y_max), "wall_s"}."""
+    (the particles' mean) at every step, "map_path": (m, 4) the same of the most likely
+    particle at the steps where it updated its map (see read_map_path), "map": P(occupied)
+    array [row = y, col = x] of the most likely particle, "limits": (x_min, x_max, y_min,
+    y_max), "wall_s"}."""
     os.makedirs(workdir, exist_ok=True)
     out = os.path.join(workdir, "rbpf_out")
     with open(config or package_path("config", "rbpf_slam.ini")) as f:
@@ -165,7 +171,35 @@ def run_rbpf_slam(rawlog, workdir, seed=0, config=None, timeout=900):
     base = os.path.join(out, "finalMap_mrpt__maps__COccupancyGridMap2D_00")
     p_free = _read_png_gray(base + ".png") / 255.0
     limits = tuple(np.loadtxt(base + "_limits.txt", comments="%").ravel()[:4])
-    return {"path": path, "map": 1.0 - p_free[::-1], "limits": limits, "wall_s": wall}
+    map_path = read_map_path(np.loadtxt(os.path.join(out, "most_likely_path.txt"), ndmin=2),
+                             np.loadtxt(os.path.join(out, "log_times.txt"), comments="%",
+                                        ndmin=2), path)
+    return {"path": path, "map_path": map_path, "map": 1.0 - p_free[::-1], "limits": limits,
+            "wall_s": wall}
+
+
+def read_map_path(most_likely, times, path):
+    """(m, 4) stamp x y yaw of the path of the particle whose map rbpf-slam saves.
+
+    The per-step path (``log_estimated_path.txt``) is the particles' mean at each step, as
+    the filter knew it then; the saved map is the most likely particle's at the end, built
+    along that particle's own history (``most_likely_path.txt``: x y yaw, the initial pose
+    then one pose per filter update, without stamps). The two can differ by the heading
+    spread of the particles, so the map is placed by the fit of its own path. Filter and map
+    are updated at the same steps (localizeLinDistance = insertionLinDistance, ...):
+    ``log_times.txt``'s 4th column marks them, and ``path`` (the per-step path) gives their
+    stamps."""
+    most_likely = np.asarray(most_likely, float).reshape(-1, 3)
+    updated = np.asarray(times, float)[:, 3] == 1
+    steps = np.asarray(times, float)[updated, 0].astype(int)
+    if len(most_likely) != len(steps) + 1:
+        raise SlamError("rbpf-slam: %d poses in most_likely_path.txt for %d map updates in "
+                        "log_times.txt (expected the initial pose and one per update: the "
+                        "filter and the map must update at the same steps)"
+                        % (len(most_likely), len(steps)))
+    most_likely = most_likely[1:]
+    # rows of the per-step path are steps 0, 1, ...
+    return np.column_stack([np.asarray(path, float)[steps, 0], most_likely])
 
 
 def _read_png_gray(path):
@@ -348,14 +382,17 @@ def slam_experiment(scans_by_topic, source_bag, scenario, refs, outdir, workdir=
 
 def evaluate_slam(run, index, scenario, refs):
     """Figures of one rbpf-slam run against the ground truth (and the run's aligned data
-    for the plots). Path and map are placed by the rigid fit of the estimated path to the
-    true one."""
+    for the plots). The per-step path is placed by the rigid fit of it to the true path, the
+    map by the fit of its own particle's path (read_map_path)."""
     path = run["path"]
     true = np.array([scenario.true_pose(s)[:2] for s in path[:, 0]])
     rmse, theta, t = aligned_rmse(path[:, 1:3], true)
+    map_path = run["map_path"]
+    map_true = np.array([scenario.true_pose(s)[:2] for s in map_path[:, 0]])
+    map_rmse, map_theta, map_t = aligned_rmse(map_path[:, 1:3], map_true)
     odo_true = np.array([scenario.true_pose(s)[:2] for s in index[:, 1]])
     odo_rmse, odo_theta, odo_t = aligned_rmse(index[:, 2:4], odo_true)
-    grid = ResampledMap(run["map"], run["limits"], theta, t, refs)
+    grid = ResampledMap(run["map"], run["limits"], map_theta, map_t, refs)
     tol = int(round(MAP_TOLERANCE / refs["resolution"]))
     f = mapping.compare_maps({"slam": grid}, refs["truth"], refs["plane"], refs["reference"],
                              tolerance_cells=tol, reference_3d=refs["reference_3d"])["slam"]
@@ -365,6 +402,7 @@ def evaluate_slam(run, index, scenario, refs):
            "map_precision": f["precision"], "map_recall": f["found"],
            "obstacles_3d_found": f["found_3d"], "occupied_cells": f["occupied_cells"],
            "false_cells": f["false_cells"], "alignment_deg": math.degrees(theta),
+           "map_path_rmse_m": map_rmse, "map_alignment_deg": math.degrees(map_theta),
            "steps": int(len(path)), "wall_s": run["wall_s"]}
     aligned = {"path": transform_points(path[:, 1:3], theta, t), "true": true,
                "odometry": transform_points(index[:, 2:4], odo_theta, odo_t), "grid": grid}
