@@ -25,9 +25,9 @@ import time
 import numpy as np
 import yaml
 
-from .report import fmt, table
-from .rosrun import REPO, Master, RunError, stop_process
-from .transport_experiment import cpu_delta, cpu_snapshot
+from ..evaluation.report import fmt, table
+from ..ros.rosrun import REPO, Master, RunError, stop_process
+from .transport import cpu_delta, cpu_snapshot
 
 PATHS = ("baseline", "image", "cloud")
 CONFIG = os.path.join(REPO, "config", "sim_robot", "camera_left_converter.yaml")
@@ -36,7 +36,7 @@ TOPIC = "/bench_camera/depth"
 
 def render_frames(width, height, count, seed=0):
     """(camera, [(depth uint16 mm array, rel time)]) of the default scenario's left camera at width x height."""
-    from .scenario import Scenario
+    from ..simulation.scenario import Scenario
     sc = Scenario.default(seed=seed)
     cam = dataclasses.replace([c for c in sc.robot.cameras if c.name == "camera_left"][0],
                               width=width, height=height)
@@ -69,8 +69,8 @@ class _Frames:
         import tf2_ros
         from geometry_msgs.msg import TransformStamped
         from sensor_msgs.msg import CameraInfo, Image, LaserScan
-        from .robot import quat_from_matrix
-        from .scenario import Scenario
+        from ..simulation.robot import quat_from_matrix
+        from ..simulation.scenario import Scenario
         self.rospy, self.Image, self.CameraInfo, self.Scenario = rospy, Image, CameraInfo, Scenario
         self.cam, self.frames = cam, frames
         self.image_pub = rospy.Publisher(TOPIC + "/image_rect", Image, queue_size=5)
