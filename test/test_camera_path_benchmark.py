@@ -9,7 +9,7 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "scripts"))
-from laserscan_toolbox import camera_path_benchmark as cpb  # noqa: E402
+from laserscan_toolbox.experiments import camera_path as cpb  # noqa: E402
 
 
 def test_figures_are_medians_and_ratios():

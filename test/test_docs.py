@@ -66,12 +66,17 @@ COMMANDS = {
     # --- experiments and benchmarks (minutes each; their analysis is tested)
     "scripts/transport_experiment --duration 12 --repeat 3 --arg depth_input:=cloud --output /tmp/transport": CHECKED,
     "scripts/transport_experiment --output /tmp/transport": CHECKED,
-    "scripts/camera_path_benchmark": "test/test_camera_path_benchmark.py",
-    "scripts/camera_path_benchmark --width 1280 --height 720 --frames 100": CHECKED,
+    "scripts/camera_path_benchmark --repeat 3": "test/test_camera_path_benchmark.py",
+    "scripts/camera_path_benchmark --repeat 3 --range-noise off": CHECKED,
+    "scripts/camera_path_benchmark --repeat 3 --width 1280 --height 720 --frames 100 --range-noise off": CHECKED,
     "scripts/camera_path_benchmark --width 640 --height 480 --frames 150 --rate 15 --repeat 2": CHECKED,
     "scripts/soak --quick --output soak_quick": CHECKED,
     "scripts/soak --output soak_30min": CHECKED,
-    "/usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cost.py": CHECKED,
+    "/usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cost.py --rate 3": CHECKED,
+    "/usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cost.py --rate 3 --executable "
+    "per_point_reference_node _mode:=per_point": CHECKED,
+    "/usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cpu.py --clouds 100 --repeat 3":
+    "depth_filter_scan_converter/test/test_per_point_reference.py",
     "/usr/bin/python3 multi_laserscan_merger/bench/measure_node_cost.py --seconds 20": CHECKED,
     "cmake --build build --target depth_filter_scan_converter_benchmark": CHECKED,
     "cmake --build build --target multi_laserscan_merger_benchmark -j2": CHECKED,

@@ -19,7 +19,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 SCRIPTS = os.path.join(REPO, "scripts")
 sys.path.insert(0, SCRIPTS)
-from laserscan_toolbox import evaluate as ev  # noqa: E402
+from laserscan_toolbox.evaluation import evaluate as ev  # noqa: E402
 
 DATA = os.path.join(REPO, "test", "data", "real")
 DUAL_BAG = os.path.join(DATA, "dual_lidar_scans_demo.bag")
@@ -93,7 +93,7 @@ def test_table_tops_in_the_fused_scan_not_in_the_lidar_only_scan(evaluated):
     """Beams where something above the lidars' plane (a table top, a shelf's overhang) is
     closer than anything in the plane: the camera-fused scan sees it at the right range,
     the lidar-only scan does not."""
-    from laserscan_toolbox.scenario import Scenario
+    from laserscan_toolbox.simulation.scenario import Scenario
     sc = Scenario.from_bag(evaluated["bag"])
     res = evaluated["results"]
     floor, zlo, zhi = res["band"]

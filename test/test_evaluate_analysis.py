@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox import evaluate as ev  # noqa: E402
+from laserscan_toolbox.evaluation import evaluate as ev  # noqa: E402
 
 
 def test_dropped_inputs_are_found_by_stamp():
@@ -106,7 +106,7 @@ def test_extreme_and_missing_stamps_are_reported(tmp_path):
     """An output whose stamps are far ahead of the bag clock (near the end of ROS time),
     one from 1970 (an unset stamp), one message without a readable stamp: figures and the
     report come out, with the negative latencies explained."""
-    from laserscan_toolbox import report
+    from laserscan_toolbox.evaluation import report
     bag_t = 1.4839920e9 + np.arange(6) * 0.1
     inputs = {"/scan_in": {"type": "sensor_msgs/LaserScan", "count": 6, "frequency": 10.0,
                            "stamps": (MAX_STAMP - 1 + np.arange(6) * 0.1).tolist(), "bytes": 600,
@@ -149,7 +149,7 @@ def test_extreme_and_missing_stamps_are_reported(tmp_path):
 
 
 def test_stale_receive_clock_is_told_apart_from_stamps_ahead():
-    from laserscan_toolbox import report
+    from laserscan_toolbox.evaluation import report
     results = {"outputs": {"/m": {"latency_min_s": -0.1, "negative_latency_fraction": 0.003,
                                   "delay_after_input_median_s": 0.001,
                                   "delay_after_input_p95_s": 0.004,
@@ -161,7 +161,7 @@ def test_stale_receive_clock_is_told_apart_from_stamps_ahead():
 
 
 def test_snapshot_plot_places_inputs_by_their_mounts(tmp_path):
-    from laserscan_toolbox import report
+    from laserscan_toolbox.evaluation import report
 
     def scan(ranges, frame, inp, mount):
         return {"stamp": 10.0, "frame": frame, "input": inp, "angle_min": 0.0,

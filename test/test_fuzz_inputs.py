@@ -1,5 +1,5 @@
-"""The node fuzz's generator (scripts/laserscan_toolbox/fuzz_inputs.py): seeded, reaches every
-case, and breaks what each case says while the valid inputs stay valid."""
+"""The node fuzz's generator (scripts/laserscan_toolbox/experiments/fuzz_inputs.py): seeded,
+reaches every case, and breaks what each case says while the valid inputs stay valid."""
 import io
 import math
 import os
@@ -9,7 +9,7 @@ import sys
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
 import genpy  # noqa: E402
 
-from laserscan_toolbox import fuzz_inputs as fz  # noqa: E402
+from laserscan_toolbox.experiments import fuzz_inputs as fz  # noqa: E402
 
 STAMP = genpy.Time(1700000000, 5)
 

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox import raycast  # noqa: E402
-from laserscan_toolbox.robot import Robot, Sonar, Lidar, Camera  # noqa: E402
-from laserscan_toolbox.scenario import Scenario, TOPICS  # noqa: E402
-from laserscan_toolbox.world import World, Box, Cylinder, shop_floor  # noqa: E402
+from laserscan_toolbox.simulation import raycast  # noqa: E402
+from laserscan_toolbox.simulation.robot import Robot, Sonar, Lidar, Camera  # noqa: E402
+from laserscan_toolbox.simulation.scenario import Scenario, TOPICS  # noqa: E402
+from laserscan_toolbox.simulation.world import World, Box, Cylinder, shop_floor  # noqa: E402
 
 PANE_X, WALL_X = 3.0, 6.0
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox import mapping  # noqa: E402
+from laserscan_toolbox.evaluation import mapping  # noqa: E402
 
 RES = 0.05
 

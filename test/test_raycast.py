@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox import raycast  # noqa: E402
-from laserscan_toolbox.world import World, Box, Cylinder, Hole, Person  # noqa: E402
+from laserscan_toolbox.simulation import raycast  # noqa: E402
+from laserscan_toolbox.simulation.world import World, Box, Cylinder, Hole, Person  # noqa: E402
 
 O = np.array([[0.0, 0.0, 0.5]])
 

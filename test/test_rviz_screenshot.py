@@ -36,7 +36,7 @@ def publish(config):
     from geometry_msgs.msg import TransformStamped
     from sensor_msgs import point_cloud2
     from sensor_msgs.msg import LaserScan, PointCloud2
-    from laserscan_toolbox.rviz_shot import displays
+    from laserscan_toolbox.ros.rviz_shot import displays
     rospy.init_node("fake_pipeline")
     pubs = []
     for i, (cls, topic, _, _) in enumerate(displays(config)):
@@ -73,8 +73,8 @@ def publish(config):
 def test_rviz_draws_the_pipeline(tmp_path):
     for tool in ("xvfb-run", "rviz", "import", "roscore"):
         assert shutil.which(tool), "%s is missing (Debian packages xvfb, rviz, imagemagick)" % tool
-    from laserscan_toolbox.rosrun import free_port, stop_process
-    from laserscan_toolbox.rviz_shot import displays, image_stats, screenshot
+    from laserscan_toolbox.ros.rosrun import free_port, stop_process
+    from laserscan_toolbox.ros.rviz_shot import displays, image_stats, screenshot
     port = free_port()
     env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_HOME=str(tmp_path),
                ROS_LOG_DIR=str(tmp_path / "log"), ROS_IP="127.0.0.1",
@@ -104,8 +104,8 @@ def test_rviz_draws_the_pipeline(tmp_path):
 
 def test_generated_view_of_the_simulated_robot_is_the_shipped_one(tmp_path):
     """rviz.launch's defaults write what config/rviz/pipeline.rviz shows (enabled displays)."""
-    from laserscan_toolbox import rviz_config as rc
-    from laserscan_toolbox.rviz_shot import displays
+    from laserscan_toolbox.ros import rviz_config as rc
+    from laserscan_toolbox.ros.rviz_shot import displays
     path = rc.write_config(rc.make_config(**rc.SIM_VIEW), str(tmp_path / "sim.rviz"))
     assert sorted(displays(path)) == sorted(d for d in displays(CONFIG) if d[3])
     path = rc.write_config(rc.make_config(**USER_VIEW), str(tmp_path / "user.rviz"))
@@ -131,7 +131,7 @@ def test_command_lines(tmp_path):
     p = run(os.path.join(tools, "rviz_config"), "--fixed-frame", "map", "--scans", "/a,/b",
             "--merged", "none", "--clouds", "none", "--output", str(out))
     assert p.returncode == 0, p.stderr
-    from laserscan_toolbox.rviz_shot import displays
+    from laserscan_toolbox.ros.rviz_shot import displays
     assert [d[1] for d in displays(str(out))] == ["/a", "/b"]
     assert "Fixed Frame: map" in out.read_text()
     p = run(os.path.join(tools, "rviz_config"), "--template", str(tmp_path / "none.rviz"))
@@ -153,8 +153,8 @@ def test_rviz_launch_shows_a_users_bag(tmp_path):
     bag, shows errors and no input scan: the check can fail."""
     for tool in ("xvfb-run", "rviz", "import", "roscore"):
         assert shutil.which(tool), "%s is missing (Debian packages xvfb, rviz, imagemagick)" % tool
-    from laserscan_toolbox import rviz_config as rc
-    from laserscan_toolbox.rviz_shot import (bag_screenshot, displays, error_icons, image_stats,
+    from laserscan_toolbox.ros import rviz_config as rc
+    from laserscan_toolbox.ros.rviz_shot import (bag_screenshot, displays, error_icons, image_stats,
                                              rviz_launch_command)
     user_config = rc.write_config(rc.make_config(**USER_VIEW), str(tmp_path / "user.rviz"))
     colours = [c for _, _, c, _ in displays(user_config)]

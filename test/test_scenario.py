@@ -8,7 +8,7 @@ import pytest
 import yaml
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.scenario import Scenario, TOPICS  # noqa: E402
+from laserscan_toolbox.simulation.scenario import Scenario, TOPICS  # noqa: E402
 
 import rosbag  # noqa: E402
 

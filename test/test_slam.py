@@ -1,5 +1,5 @@
 """The SLAM experiment's alignment and metrics on synthetic paths and maps with known
-offsets (laserscan_toolbox.slam); the MRPT runs themselves are in test_end_to_end.py."""
+offsets (laserscan_toolbox.evaluation.slam); the MRPT runs themselves are in test_end_to_end.py."""
 import math
 import os
 import sys
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox import mapping, slam  # noqa: E402
+from laserscan_toolbox.evaluation import mapping, slam  # noqa: E402
 
 RES = 0.05
 

@@ -11,7 +11,7 @@ import pytest
 
 SCRIPTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts")
 sys.path.insert(0, SCRIPTS)
-from laserscan_toolbox import transport_experiment as te  # noqa: E402
+from laserscan_toolbox.experiments import transport as te  # noqa: E402
 
 # A child that starts a grandchild; both spin on the CPU until told to stop (stdin closed),
 # like roslaunch -> nodes. The grandchild has a __name:= argument like a ROS node.

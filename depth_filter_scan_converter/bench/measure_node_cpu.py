@@ -31,7 +31,7 @@ import tempfile
 HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(os.path.dirname(PKG), "scripts"))
-from laserscan_toolbox.camera_path_benchmark import cpu_seconds_between, thread_cpu_ns  # noqa: E402
+from laserscan_toolbox.experiments.camera_path import cpu_seconds_between, thread_cpu_ns  # noqa: E402
 from measure_node_cost import FEED, node_binary, start_master  # noqa: E402
 
 # name -> (executable, extra private parameters)

@@ -16,8 +16,8 @@ import pytest
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
 
 import rosbag  # noqa: E402
-from laserscan_toolbox import bagio  # noqa: E402
-from laserscan_toolbox.slam import tool  # noqa: E402
+from laserscan_toolbox.ros import bagio  # noqa: E402
+from laserscan_toolbox.evaluation.slam import tool  # noqa: E402
 
 RADIUS, OMEGA = 2.0, 0.5          # m, rad/s
 MOUNT = (0.3, -0.1, 0.2, 0.5)     # x, y, z, yaw of the laser in base_link

@@ -1,20 +1,20 @@
-"""Tools of the unified laser-scan toolbox (ROS 1), one importable module.
+"""Tools of the unified laser-scan toolbox (ROS 1), one importable package in layers.
 
-Sub-modules (import them explicitly; none is imported here so that a tool only
-pays for what it uses):
+Sub-packages, lowest layer first (a module imports only from its own layer or below; the
+test test/test_toolbox_layers.py checks it):
 
-- ``world``     shop-floor world made of primitives (boxes, vertical cylinders,
-                floor holes, walking people), serialisable to a dict/YAML.
-- ``raycast``   vectorised numpy ray casting (slab method) for arbitrary 3D rays,
-                depth-image rendering, and the 2D height-band query.
-- ``robot``     the simulated robot (body, sensor mounts, servo), its trajectory
-                from A to B and back, and the wheel-odometry noise model.
-- ``scenario``  ``Scenario``: the built-in scenario, its ground truth (ideal scan,
-                obstacle grid), topic names (``TOPICS``) and the bag simulator.
-- ``bagio``     helpers to write ROS messages (latched topics, tf) into a bag.
-- ``slam``      real 2D SLAM (MRPT rbpf-slam) and localization (pf-localization)
-                on recorded scan streams, aligned and scored against the ground truth.
+- ``ros``          running ROS pieces (private master, roslaunch, rosbag play, CPU meters),
+                   writing bags, rviz configurations and screenshots.
+- ``config_check`` the schema of every node parameter and the YAML / launch / live checks
+                   (a module of its own: it imports nothing of the toolbox).
+- ``simulation``   the shop-floor world, ray casting, the simulated robot and the scenario
+                   with its ground truth and bag simulator.
+- ``evaluation``   playing a bag through the pipeline and recording its outputs, the
+                   analysis against the ground truth, metrics, mapping, SLAM and the reports.
+- ``experiments``  the benchmarks and experiments built on the evaluation (CPU against depth
+                   points, transport, camera path, soak) and the node fuzz's inputs.
 
-The command-line entry points live beside this folder in ``scripts/``; each adds
-``scripts/`` to ``sys.path`` and imports from here.
+Nothing is imported here, so that a tool only pays for what it uses. The command-line entry
+points live beside this folder in ``scripts/``; each adds ``scripts/`` to ``sys.path`` and
+calls a module's ``main``.
 """

@@ -27,8 +27,8 @@ from sensor_msgs.msg import CameraInfo, Image, LaserScan
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "..", "scripts"))
-from laserscan_toolbox.robot import quat_from_matrix  # noqa: E402
-from laserscan_toolbox.scenario import Scenario  # noqa: E402
+from laserscan_toolbox.simulation.robot import quat_from_matrix  # noqa: E402
+from laserscan_toolbox.simulation.scenario import Scenario  # noqa: E402
 
 TIMES = [0.4, 1.1, 1.9, 2.6, 3.4]  # s into the scenario: the servo is at different tilts
 

@@ -30,7 +30,7 @@ from tf2_msgs.msg import TFMessage
 from scan_watch import LIDAR_DISTANCE, WALL_DISTANCE, ScanWatch, mount_transforms, room_fraction, wall_fraction
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..", "..", "scripts"))
-from laserscan_toolbox import fuzz_inputs as fz  # noqa: E402
+from laserscan_toolbox.experiments import fuzz_inputs as fz  # noqa: E402
 
 TICK_NS = 10_000_000  # 10 ms of simulated time per tick
 MAX_RECOVERY = 0.5  # s (simulated) from the end of a fault to a complete output

@@ -3,7 +3,7 @@
 
 A converter and a merger nodelet share one manager (fuzz_pipeline.launch). Each burst sends
 seeded malformed clouds (to the converter), scans (to the merger's lidar source), odometry
-and tf (laserscan_toolbox.fuzz_inputs; and /tf transforms of the lidar's static mount, 5 m off,
+and tf (laserscan_toolbox.experiments.fuzz_inputs; and /tf transforms of the lidar's static mount, 5 m off,
 which must not replace it), while the camera's mount is published on /tf at 50 Hz; then a
 valid cloud and a valid lidar scan must each give a correct output within ~max_latency
 seconds, stamped exactly as the valid input (bit for bit).
@@ -27,7 +27,7 @@ from tf2_msgs.msg import TFMessage
 from scan_watch import LIDAR_DISTANCE, WALL_DISTANCE, ScanWatch, mount_transforms, room_fraction, wall_fraction
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..", "..", "scripts"))
-from laserscan_toolbox import fuzz_inputs as fz  # noqa: E402
+from laserscan_toolbox.experiments import fuzz_inputs as fz  # noqa: E402
 
 def frame_problem(msg):
     return [] if msg.header.frame_id == "base_link" else [f"frame {msg.header.frame_id!r}"]

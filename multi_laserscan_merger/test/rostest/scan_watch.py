@@ -11,7 +11,7 @@ from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import LaserScan
 
 
-# The valid inputs of the fuzz and fault tests (laserscan_toolbox.fuzz_inputs.valid_scan and
+# The valid inputs of the fuzz and fault tests (laserscan_toolbox.experiments.fuzz_inputs.valid_scan and
 # valid_cloud): the lidar sees a round room of LIDAR_DISTANCE, the camera a wall WALL_DISTANCE
 # ahead, 1 m wide. Both sensors sit on base_link's z axis without rotation.
 LIDAR_DISTANCE = 2.0

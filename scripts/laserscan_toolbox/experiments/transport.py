@@ -16,8 +16,8 @@ import statistics
 import sys
 import time
 
-from .report import fmt, table
-from .rosrun import REPO, BagPlayer, Launch, RunError
+from ..evaluation.report import fmt, table
+from ..ros.rosrun import REPO, BagPlayer, Launch, RunError
 
 MODES = ("manager", "standalone")
 OUTPUT_TOPICS = ("/merged_scan", "/lidar_scan")
@@ -144,7 +144,7 @@ def markdown_table(summary):
 
 def measure(session, bag, mode, launch_file, launch_args, label, tail=0.5):
     """Plays ``bag`` through the launch in ``mode``; returns that run's figures."""
-    from . import evaluate as ev
+    from ..evaluation import evaluate as ev
     args = list(launch_args) + ["standalone:=%s" % ("true" if mode == "standalone" else "false")]
     wd = session.workdir
     launch = Launch(launch_file, args, os.path.join(wd, label + "_roslaunch.log")).start()
@@ -219,8 +219,8 @@ class _Counter:
 
 def experiment(outdir, duration=12.0, camera_points=None, repeat=2, launch_file=DEFAULT_LAUNCH,
                launch_args=(), seed=0, log=print):
-    from . import evaluate as ev
-    from .cpu_experiment import simulate
+    from ..evaluation import evaluate as ev
+    from .cpu import simulate
     os.makedirs(outdir, exist_ok=True)
     t_start = time.time()
     runs = []
@@ -259,7 +259,7 @@ def experiment(outdir, duration=12.0, camera_points=None, repeat=2, launch_file=
 def _simulate_default(bag, duration, seed):
     """simulate_scenario with its default camera size."""
     import subprocess
-    from .cpu_experiment import SIMULATE
+    from .cpu import SIMULATE
     p = subprocess.run([sys.executable, SIMULATE, "--output", bag, "--duration", str(duration),
                         "--seed", str(seed), "--no-progress"], capture_output=True, text=True)
     if p.returncode != 0:

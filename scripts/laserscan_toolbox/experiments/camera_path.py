@@ -37,8 +37,8 @@ import time
 import numpy as np
 import yaml
 
-from .report import fmt, table
-from .rosrun import REPO, Master, RunError, stop_process
+from ..evaluation.report import fmt, table
+from ..ros.rosrun import REPO, Master, RunError, stop_process
 
 PATHS = ("baseline", "image", "cloud")
 MANAGER_PATHS = ("source", "image", "cloud")
@@ -50,7 +50,7 @@ RECORDED = "/bench_camera/recorded"  # what the stand-in records (source "manage
 
 def render_frames(width, height, count, seed=0):
     """(camera, [(depth uint16 mm array, rel time)]) of the default scenario's left camera at width x height."""
-    from .scenario import Scenario
+    from ..simulation.scenario import Scenario
     sc = Scenario.default(seed=seed)
     cam = dataclasses.replace([c for c in sc.robot.cameras if c.name == "camera_left"][0],
                               width=width, height=height)
@@ -86,8 +86,8 @@ class _Frames:
         import tf2_ros
         from geometry_msgs.msg import TransformStamped
         from sensor_msgs.msg import CameraInfo, Image, LaserScan
-        from .robot import quat_from_matrix
-        from .scenario import Scenario
+        from ..simulation.robot import quat_from_matrix
+        from ..simulation.scenario import Scenario
         self.rospy, self.Image, self.CameraInfo, self.Scenario = rospy, Image, CameraInfo, Scenario
         self.cam, self.frames = cam, frames
         self.image_pub = rospy.Publisher(topic + "/image_rect", Image, queue_size=5)

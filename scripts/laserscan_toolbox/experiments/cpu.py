@@ -22,9 +22,9 @@ import time
 
 import numpy as np
 
-from . import evaluate as ev
-from .report import fmt, table
-from .rosrun import REPO, RunError
+from ..evaluation import evaluate as ev
+from ..evaluation.report import fmt, table
+from ..ros.rosrun import REPO, RunError
 
 POINTS = (10000, 50000, 100000, 200000, 300000)
 QUICK_POINTS = (10000, 100000, 300000)
@@ -131,7 +131,7 @@ def experiment(outdir, points=POINTS, duration=4.0, launch=ev.DEFAULT_LAUNCH, la
 
 
 def plot(res, path):
-    from .report import _plt
+    from ..evaluation.report import _plt
     plt = _plt()
     pts = np.array([r["points_per_camera"] for r in res["rows"]]) / 1000.0
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.4))

@@ -17,8 +17,8 @@ import os
 import sys
 import time
 
-from .report import fmt, table
-from .rosrun import REPO, BagPlayer, Launch, RunError
+from ..evaluation.report import fmt, table
+from ..ros.rosrun import REPO, BagPlayer, Launch, RunError
 
 DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
 OUTPUT_TOPICS = ("/merged_scan", "/lidar_scan", "/camera_left/scan", "/camera_right/scan")
@@ -186,9 +186,9 @@ def _rss_sample(procs):
 
 def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, camera_points=10000, seed=0,
         stall_s=1.0, launch_file=DEFAULT_LAUNCH, log=print):
-    from . import evaluate as ev
-    from .cpu_experiment import simulate
-    from .transport_experiment import _proc_name, tree_processes
+    from ..evaluation import evaluate as ev
+    from .cpu import simulate
+    from .transport import _proc_name, tree_processes
     os.makedirs(outdir, exist_ok=True)
     load0 = os.getloadavg()
     with ev.Session() as session:

@@ -3,7 +3,7 @@ simulator that writes it as a ROS 1 bag.
 
 API used by the evaluation tools (names and signatures are stable)::
 
-    from laserscan_toolbox.scenario import Scenario, TOPICS
+    from laserscan_toolbox.simulation.scenario import Scenario, TOPICS
     sc = Scenario.default(seed=0, duration=None, camera_points=None)
     text = sc.to_yaml(); sc2 = Scenario.from_yaml(text)      # exact round trip
     sc3 = Scenario.from_bag("shop_floor.bag")                # reads the /scenario topic
@@ -273,7 +273,7 @@ class Scenario:
         """
         import os
         import rosbag
-        from . import bagio
+        from ..ros import bagio
         from nav_msgs.msg import Odometry
         from sensor_msgs.msg import LaserScan, Image, CameraInfo, Range
         from std_msgs.msg import String
@@ -389,7 +389,7 @@ class Scenario:
         return m
 
     def _odom_msg(self, cls, t, frame, pose, twist, noisy):
-        from . import bagio
+        from ..ros import bagio
         m = cls()
         m.header.stamp = bagio.stamp(t)
         m.header.frame_id = frame
@@ -413,7 +413,7 @@ class Scenario:
 
     def static_transforms(self, t):
         """Fixed mounts: base_link -> lidar and sonar frames, tilt links -> optical frames."""
-        from . import bagio
+        from ..ros import bagio
         out = [bagio.transform(t, FRAMES["base"], L.frame, L.xyz, quat_from_yaw(L.yaw))
                for L in self.robot.lidars + self.robot.sonars]
         out += [bagio.transform(t, C.tilt_frame, C.optical_frame, C.optical_offset,

@@ -78,7 +78,7 @@ def _run(cmd, log_path, timeout, cwd=None):
         except subprocess.TimeoutExpired:
             raise SlamError("%s took longer than %.0f s (log %s)" % (cmd[0], timeout, log_path))
     if proc.returncode != 0:
-        from .rosrun import log_tail
+        from ..ros.rosrun import log_tail
         raise SlamError("%s failed with status %d:\n%s" % (" ".join(cmd), proc.returncode,
                                                          log_tail(log_path)))
 
@@ -120,7 +120,7 @@ def write_scan_bag(path, scans_by_topic, source_bag, copy_topics=("/odom", "/tf_
     import rosbag
     import rospy
     from sensor_msgs.msg import LaserScan
-    from . import bagio
+    from ..ros import bagio
     with rosbag.Bag(path, "w") as out:
         with rosbag.Bag(source_bag) as src:
             for topic, msg, t, header in src.read_messages(topics=list(copy_topics),

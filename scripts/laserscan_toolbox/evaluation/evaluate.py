@@ -26,7 +26,7 @@ import time
 import numpy as np
 
 from . import metrics
-from .rosrun import REPO, BagPlayer, CpuMeter, Launch, Master, RunError
+from ..ros.rosrun import REPO, BagPlayer, CpuMeter, Launch, Master, RunError
 
 DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
 GROUND_TRUTH_TOPIC = "/scenario"
@@ -290,7 +290,7 @@ def _own_name():
 
 
 def _tail(path):
-    from .rosrun import log_tail
+    from ..ros.rosrun import log_tail
     return log_tail(path)
 
 
@@ -466,7 +466,7 @@ def band_from_configs(config_dir):
     """(floor_height, min_height, max_height) of the converters in ``config_dir``."""
     import glob
     import yaml
-    from .config_check import find_blocks
+    from ..config_check import find_blocks
     for path in sorted(glob.glob(os.path.join(config_dir or "", "*.yaml"))):
         try:
             with open(path) as f:
@@ -614,7 +614,7 @@ THRESHOLDS = [
     ("min_coverage", "coverage", ">=", "outputs", "fraction of beams with a return"),
 ]
 
-# SLAM targets (--slam): options of laserscan_toolbox.slam.check_targets' targets
+# SLAM targets (--slam): options of laserscan_toolbox.evaluation.slam.check_targets' targets
 SLAM_THRESHOLDS = [
     # (option, target key, help)
     ("max_slam_path_rmse", "max_path_rmse", "SLAM path RMSE of both streams, m"),
@@ -661,7 +661,7 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
              save_scans=False, slam=False, slam_targets=None, slam_seed=0):
     """Runs everything and writes results.json (+ report.md and plots when ``plots``).
 
-    slam: also run the SLAM and localization experiment (``laserscan_toolbox.slam``) on
+    slam: also run the SLAM and localization experiment (``laserscan_toolbox.evaluation.slam``) on
     the first two ``map_topics`` (lidar-only, unified); slam_targets: its targets
     (``slam.TARGETS``' keys) joined to the thresholds."""
     t_start = time.time()
@@ -670,7 +670,7 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
     info = inspect_bag(bag)  # BagError: the caller says why
     scenario = None
     if GROUND_TRUTH_TOPIC in info["topics"]:
-        from .scenario import Scenario
+        from ..simulation.scenario import Scenario
         scenario = Scenario.from_bag(bag)
     args = list(launch_args)
     if config_dir:
