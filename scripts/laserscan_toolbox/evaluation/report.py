@@ -1,5 +1,7 @@
-"""Markdown reports and PNG plots of the evaluation (matplotlib, Agg backend)."""
+"""Markdown reports and PNG plots of the evaluation (matplotlib, Agg backend), and the
+figures as JSON (results.json)."""
 
+import json
 import math
 import os
 
@@ -11,6 +13,23 @@ def _plt():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
+
+
+def json_default(o):
+    """JSON for what json.dump does not know: numpy scalars and arrays, sets; else str."""
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, set):
+        return list(o)
+    return str(o)
+
+
+def write_json(data, path):
+    """Figures to a JSON file (results.json and the experiments' ones)."""
+    with open(path, "w") as f:
+        json.dump(data, f, indent=1, default=json_default)
 
 
 def fmt(v, scale=1.0, digits=1):

@@ -18,7 +18,7 @@ import sys
 import time
 
 from ..evaluation.report import fmt, table
-from ..ros.rosrun import REPO, BagPlayer, Launch, RunError
+from ..ros.rosrun import REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name
 
 DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
 OUTPUT_TOPICS = ("/merged_scan", "/lidar_scan", "/camera_left/scan", "/camera_right/scan")
@@ -186,31 +186,30 @@ def _rss_sample(procs):
 
 def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, camera_points=10000, seed=0,
         stall_s=1.0, launch_file=DEFAULT_LAUNCH, log=print):
-    from ..evaluation import evaluate as ev
     from .cpu import simulate
     from .transport import _proc_name, tree_processes
     os.makedirs(outdir, exist_ok=True)
     load0 = os.getloadavg()
-    with ev.Session() as session:
+    with Session() as session:
         wd = session.workdir
         bag = simulate(os.path.join(wd, "soak.bag"), bag_duration, camera_points, seed)
         launch = Launch(launch_file, [], os.path.join(wd, "roslaunch.log")).start()
         arrivals = player = None
         try:
-            launch.wait_ready(session.master.master, ignore_nodes=(ev._own_name(),))
+            launch.wait_ready(session.master.master, ignore_nodes=(own_node_name(),))
             arrivals = _Arrivals(OUTPUT_TOPICS)
             deadline = time.time() + 20.0
             while not arrivals.connected():
                 if time.time() > deadline:
                     raise RunError("could not connect to %s:\n%s" % (", ".join(OUTPUT_TOPICS),
-                                                                     ev._tail(launch.log_path)))
+                                                                     log_tail(launch.log_path)))
                 time.sleep(0.1)
             player = BagPlayer(bag, os.path.join(wd, "play.log"), rate=rate, extra=["-l"]).start()
             # The feed starts after rosbag play's 1 s delay; the first outputs mark it.
             deadline = time.time() + 30.0
             while not arrivals.times["/merged_scan"]:
                 if time.time() > deadline or not player.running():
-                    raise RunError("no /merged_scan within 30 s of the feed:\n%s" % ev._tail(launch.log_path))
+                    raise RunError("no /merged_scan within 30 s of the feed:\n%s" % log_tail(launch.log_path))
                 time.sleep(0.05)
             start = time.time()
             rss = {}
@@ -229,7 +228,7 @@ def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, ca
                     break
                 if launch.proc.poll() is not None or not player.running():
                     raise RunError("the pipeline or the player stopped after %.0f s:\n%s"
-                                   % (now - start, ev._tail(launch.log_path)))
+                                   % (now - start, log_tail(launch.log_path)))
                 time.sleep(min(0.5, max(0.0, next_sample - time.time())))
             end = time.time()
             # Processes that exited before the end (e.g. the check_config runs) are not the

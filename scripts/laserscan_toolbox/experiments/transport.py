@@ -17,7 +17,7 @@ import sys
 import time
 
 from ..evaluation.report import fmt, table
-from ..ros.rosrun import REPO, BagPlayer, Launch, RunError
+from ..ros.rosrun import REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name
 
 MODES = ("manager", "standalone")
 OUTPUT_TOPICS = ("/merged_scan", "/lidar_scan")
@@ -144,18 +144,17 @@ def markdown_table(summary):
 
 def measure(session, bag, mode, launch_file, launch_args, label, tail=0.5):
     """Plays ``bag`` through the launch in ``mode``; returns that run's figures."""
-    from ..evaluation import evaluate as ev
     args = list(launch_args) + ["standalone:=%s" % ("true" if mode == "standalone" else "false")]
     wd = session.workdir
     launch = Launch(launch_file, args, os.path.join(wd, label + "_roslaunch.log")).start()
     rec = None
     try:
         master = session.master.master
-        pubs = launch.wait_ready(master, ignore_nodes=(ev._own_name(),))
+        pubs = launch.wait_ready(master, ignore_nodes=(own_node_name(),))
         missing = [t for t in OUTPUT_TOPICS if t not in pubs]
         if missing:
             raise RunError("%s: the pipeline does not publish %s:\n%s"
-                           % (mode, ", ".join(missing), ev._tail(launch.log_path)))
+                           % (mode, ", ".join(missing), log_tail(launch.log_path)))
         rec = _Counter(OUTPUT_TOPICS)
         if not rec.wait_connected():
             raise RunError("%s: could not connect to %s" % (mode, ", ".join(OUTPUT_TOPICS)))
@@ -174,14 +173,14 @@ def measure(session, bag, mode, launch_file, launch_args, label, tail=0.5):
         counts = {t: rec.count[t] - n0[t] for t in OUTPUT_TOPICS}
         if player.proc.returncode != 0:
             raise RunError("rosbag play failed (status %s):\n%s"
-                           % (player.proc.returncode, ev._tail(player.log_path)))
+                           % (player.proc.returncode, log_tail(player.log_path)))
         if launch.proc.poll() is not None:
             raise RunError("%s: the pipeline stopped during playback:\n%s"
-                           % (mode, ev._tail(launch.log_path)))
+                           % (mode, log_tail(launch.log_path)))
         d = cpu_delta(before, after)
         if counts["/merged_scan"] == 0:
             raise RunError("%s: no /merged_scan during playback:\n%s"
-                           % (mode, ev._tail(launch.log_path)))
+                           % (mode, log_tail(launch.log_path)))
         fig = run_figures(d["total_s"], window, counts["/merged_scan"], d["loader_s"])
         fig.update({"mode": mode, "processes": len(d["per_process"]), "counts": counts,
                     "per_process_cpu_s": d["per_process"], "lost": d["lost"]})
@@ -219,13 +218,12 @@ class _Counter:
 
 def experiment(outdir, duration=12.0, camera_points=None, repeat=2, launch_file=DEFAULT_LAUNCH,
                launch_args=(), seed=0, log=print):
-    from ..evaluation import evaluate as ev
     from .cpu import simulate
     os.makedirs(outdir, exist_ok=True)
     t_start = time.time()
     runs = []
     load0 = os.getloadavg()
-    with ev.Session() as session:
+    with Session() as session:
         bag = os.path.join(session.workdir, "transport.bag")
         if camera_points is None:
             _simulate_default(bag, duration, seed)
