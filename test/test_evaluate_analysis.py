@@ -211,3 +211,32 @@ def test_glass_beams_are_judged_apart_from_the_range_error():
     seen_pane[:20] = 0.98
     g = analysis.glass_stats({"records": {"/m": {"scans": [scan(1.0, seen_pane)]}}}, info, sc, (0.0, 0.05, 1.0))["/m"]
     assert (g["glass_beams"], g["found"]) == (20, 20)
+
+
+# ------------------------------------------------ results.json and the demo's summary
+
+def test_results_json_and_demo_summary_link_each_section_once(tmp_path):
+    """write_json takes numpy figures; demo_summary reads them back and links the CPU
+    experiment and the rviz picture from report.md once, however often it runs."""
+    import json
+    from laserscan_toolbox.evaluation import report
+    results = {"bag": "/x/s.bag", "bag_duration_s": np.float64(6.0), "outputs": {},
+               "inputs": {}, "cpu": {"manager": {"cpu_percent": np.float32(12.5)}},
+               "thresholds": [{"ok": True, "check": "rate"}], "beams": np.arange(3),
+               "frames": {"odom"}}
+    report.write_json(results, str(tmp_path / "results.json"))
+    back = json.loads((tmp_path / "results.json").read_text())
+    assert back["beams"] == [0, 1, 2] and back["frames"] == ["odom"]
+    assert back["cpu"]["manager"]["cpu_percent"] == 12.5
+    (tmp_path / "cpu").mkdir()
+    row = {"points_per_camera": 10000, "merged": {"manager_cpu_percent": 3.0, "bytes_per_s": 2e3},
+           "raw": {"bytes_per_s": 4e6}}
+    report.write_json({"rows": [row]}, str(tmp_path / "cpu" / "cpu_results.json"))
+    (tmp_path / "report.md").write_text("# Pipeline evaluation\n")
+    (tmp_path / "rviz.png").write_bytes(b"png")
+    for _ in range(2):
+        text = report.demo_summary(str(tmp_path), "total 1s")
+    assert text.startswith("Demo figures (total 1s)\nbag s.bag: 6.0 s")
+    assert "PASS rate" in text and "10k points: manager 3.0%" in text
+    md = (tmp_path / "report.md").read_text()
+    assert md.count("(cpu/cpu_experiment.md)") == 1 and md.count("(rviz.png)") == 1

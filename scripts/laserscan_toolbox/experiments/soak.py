@@ -12,13 +12,13 @@ A benchmark, not a test: it prints figures against the targets (growth below 1 M
 warm-up, no stall) and writes soak.json, soak.md and soak.png into the output folder.
 """
 
-import json
 import os
 import sys
 import time
 
-from ..evaluation.report import fmt, table
-from ..ros.rosrun import REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name
+from ..evaluation.report import fmt, table, write_json
+from ..ros.rosrun import (REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name,
+                          wait_connected)
 
 DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
 OUTPUT_TOPICS = ("/merged_scan", "/lidar_scan", "/camera_left/scan", "/camera_right/scan")
@@ -164,9 +164,6 @@ class _Arrivals:
     def _cb(self, _msg, topic):
         self.times[topic].append(time.time())
 
-    def connected(self):
-        return all(s.get_num_connections() > 0 for s in self.subs)
-
     def close(self):
         for s in self.subs:
             s.unregister()
@@ -198,12 +195,9 @@ def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, ca
         try:
             launch.wait_ready(session.master.master, ignore_nodes=(own_node_name(),))
             arrivals = _Arrivals(OUTPUT_TOPICS)
-            deadline = time.time() + 20.0
-            while not arrivals.connected():
-                if time.time() > deadline:
-                    raise RunError("could not connect to %s:\n%s" % (", ".join(OUTPUT_TOPICS),
-                                                                     log_tail(launch.log_path)))
-                time.sleep(0.1)
+            if not wait_connected(arrivals.subs, timeout=20.0):
+                raise RunError("could not connect to %s:\n%s" % (", ".join(OUTPUT_TOPICS),
+                                                                 log_tail(launch.log_path)))
             player = BagPlayer(bag, os.path.join(wd, "play.log"), rate=rate, extra=["-l"]).start()
             # The feed starts after rosbag play's 1 s delay; the first outputs mark it.
             deadline = time.time() + 30.0
@@ -246,8 +240,7 @@ def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, ca
            "camera_points": camera_points, "seed": seed, "stall_s": stall_s, "loadavg_before": load0,
            "loadavg_after": os.getloadavg(), "cpu_count": os.cpu_count(), "rss": rss,
            "summary": summarize(rss, times, start, end, stall_s)}
-    with open(os.path.join(outdir, "soak.json"), "w") as f:
-        json.dump(res, f, indent=1)
+    write_json(res, os.path.join(outdir, "soak.json"))
     text = markdown(res)
     with open(os.path.join(outdir, "soak.md"), "w") as f:
         f.write(text)
