@@ -240,3 +240,18 @@ def test_results_json_and_demo_summary_link_each_section_once(tmp_path):
     assert "PASS rate" in text and "10k points: manager 3.0%" in text
     md = (tmp_path / "report.md").read_text()
     assert md.count("(cpu/cpu_experiment.md)") == 1 and md.count("(rviz.png)") == 1
+
+
+def test_input_stats_rate_from_stamps_else_rosbag_frequency():
+    topics = {"/scan": {"type": "sensor_msgs/LaserScan", "count": 5, "frequency": 3.0,
+                        "stamps": [0.0, 0.1, 0.2, 0.3, 0.4], "bytes": 1000,
+                        "age": [0.02, 0.01, 0.03, 0.02, 0.02]},
+              "/tf": {"type": "tf2_msgs/TFMessage", "count": 4, "frequency": 7.5, "stamps": [],
+                      "bytes": 400, "age": []}}
+    s = analysis.input_stats({"topics": topics, "start": 0.0, "end": 2.0})
+    assert s["/scan"]["rate_hz"] == pytest.approx(10.0)
+    assert s["/scan"]["age_median_s"] == pytest.approx(0.02)
+    assert s["/scan"]["age_min_s"] == pytest.approx(0.01)
+    assert s["/scan"]["bytes_per_s"] == pytest.approx(500.0)
+    assert s["/tf"] == {"type": "tf2_msgs/TFMessage", "count": 4, "rate_hz": 7.5,
+                        "bytes_per_s": 200.0, "age_median_s": None, "age_min_s": None}

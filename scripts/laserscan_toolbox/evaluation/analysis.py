@@ -95,6 +95,18 @@ def delay_after_input(recv_sim, stamps, drivers, bag_topics):
     return metrics.latency_stats(recv, sent)
 
 
+def input_stats(bag_info):
+    """Per topic of the bag: type, count, rate (from stamps, else rosbag's frequency), bytes/s
+    and how old its messages already were when recorded (median, min; s)."""
+    span = max(bag_info["end"] - bag_info["start"], 1e-9)
+    return {t: {"type": v["type"], "count": v["count"],
+                "rate_hz": metrics.rate_stats(v["stamps"])["rate"] if v["stamps"] else v["frequency"],
+                "bytes_per_s": v["bytes"] / span,
+                "age_median_s": float(np.median(v["age"])) if v["age"] else None,
+                "age_min_s": float(np.min(v["age"])) if v["age"] else None}
+            for t, v in bag_info["topics"].items()}
+
+
 def output_stats(run, bag_info):
     stats = {}
     for topic, d in run["records"].items():

@@ -16,8 +16,8 @@ import numpy as np
 from . import metrics, report
 from ..ros.rosrun import REPO, RunError, Session
 from .analysis import (BASE_FRAME, THRESHOLDS, band_from_configs, check_thresholds,
-                       default_threshold_topics, glass_stats, ground_truth_stats, output_stats,
-                       scan_snapshot)
+                       default_threshold_topics, glass_stats, ground_truth_stats, input_stats,
+                       output_stats, scan_snapshot)
 from .playback import (DEFAULT_LAUNCH, BagError, bag_scans, inspect_bag, run_pipeline,
                        save_scan_records)
 
@@ -47,9 +47,9 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
              save_scans=False, slam=False, slam_targets=None, slam_seed=0):
     """Runs everything and writes results.json (+ report.md and plots when ``plots``).
 
-    slam: also run the SLAM and localization experiment (``laserscan_toolbox.evaluation.slam``) on
-    the first two ``map_topics`` (lidar-only, unified); slam_targets: its targets
-    (``slam.TARGETS``' keys) joined to the thresholds."""
+    slam: also run the SLAM and localization experiment (``evaluation.slam``) on the first
+    two ``map_topics`` (lidar-only, unified); slam_targets: its targets (``slam.TARGETS``'
+    keys) joined to the thresholds."""
     t_start = time.time()
     thresholds = thresholds or {}
     log("inspecting %s" % bag)
@@ -71,13 +71,7 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
     results = {"bag": info["path"], "bag_duration_s": info["end"] - info["start"],
                "bag_size_bytes": info["size"], "launch": run["launch"],
                "player": run["player"], "ground_truth": scenario is not None,
-               "inputs": {t: {"type": v["type"], "count": v["count"],
-                              "rate_hz": metrics.rate_stats(v["stamps"])["rate"]
-                              if v["stamps"] else v["frequency"],
-                              "bytes_per_s": v["bytes"] / max(info["end"] - info["start"], 1e-9),
-                              "age_median_s": float(np.median(v["age"])) if v["age"] else None,
-                              "age_min_s": float(np.min(v["age"])) if v["age"] else None}
-                          for t, v in info["topics"].items()},
+               "inputs": input_stats(info),
                "outputs": output_stats(run, info), "cpu": run["cpu"],
                "playback_wall_s": run["wall"], "unrecorded_outputs":
                    {t: ty for t, ty in run["outputs"].items() if t not in run["records"]}}
