@@ -82,6 +82,14 @@ def inspect_bag(path, stamps=True):
 
 # ---------------------------------------------------------------- recording
 
+def scan_record(msg):
+    """A sensor_msgs/LaserScan as the recorder keeps it (the analysis' scan layout)."""
+    return {"stamp": msg.header.stamp.to_sec(), "frame": msg.header.frame_id,
+            "angle_min": msg.angle_min, "angle_max": msg.angle_max,
+            "angle_increment": msg.angle_increment, "range_min": msg.range_min,
+            "range_max": msg.range_max, "ranges": np.asarray(msg.ranges, np.float32)}
+
+
 class Recorder:
     """Subscribes to topics with rospy.AnyMsg and keeps what the analysis needs."""
 
@@ -129,11 +137,7 @@ class Recorder:
         if d["type"] == "sensor_msgs/LaserScan":
             m = self._scan_cls()
             m.deserialize(raw)
-            d["scans"].append({"stamp": m.header.stamp.to_sec(), "frame": m.header.frame_id,
-                               "angle_min": m.angle_min, "angle_max": m.angle_max,
-                               "angle_increment": m.angle_increment,
-                               "range_min": m.range_min, "range_max": m.range_max,
-                               "ranges": np.asarray(m.ranges, np.float32)})
+            d["scans"].append(scan_record(m))
 
     def close(self):
         for s in self.subs + [self._tf_sub]:
@@ -250,11 +254,7 @@ def bag_scans(path, topics, start=None, end=None):
               (("start_time", start), ("end_time", end)) if v is not None}
     with rosbag.Bag(path) as bag:
         for topic, m, _ in bag.read_messages(topics=list(topics), **window):
-            out[topic]["scans"].append({
-                "stamp": m.header.stamp.to_sec(), "frame": m.header.frame_id,
-                "angle_min": m.angle_min, "angle_max": m.angle_max,
-                "angle_increment": m.angle_increment, "range_min": m.range_min,
-                "range_max": m.range_max, "ranges": np.asarray(m.ranges, np.float32)})
+            out[topic]["scans"].append(scan_record(m))
     return out
 
 
