@@ -19,7 +19,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 SCRIPTS = os.path.join(REPO, "scripts")
 sys.path.insert(0, SCRIPTS)
-from laserscan_toolbox.evaluation import evaluate as ev  # noqa: E402
+from laserscan_toolbox.evaluation import analysis, playback  # noqa: E402
 
 DATA = os.path.join(REPO, "test", "data", "real")
 DUAL_BAG = os.path.join(DATA, "dual_lidar_scans_demo.bag")
@@ -50,7 +50,7 @@ def evaluated(tmp_path_factory):
                     1500)
     with open(os.path.join(outdir, "results.json")) as f:
         results = json.load(f)
-    scans = ev.load_scan_records(os.path.join(outdir, "scans.npz"))
+    scans = playback.load_scan_records(os.path.join(outdir, "scans.npz"))
     return {"bag": bag, "code": code, "log": log, "results": results, "scans": scans,
             "out": outdir}
 
@@ -289,11 +289,11 @@ def test_thresholds_decide_the_exit_status():
                "accuracy": {"/s": {"median_error": 0.01, "p95_error": 0.2, "false_rate": 0.0,
                                    "missed_rate": 0.4}},
                "cpu": {"m": {"cpu_percent": 30.0}}}
-    ok = ev.check_thresholds(results, {"max_median_error": 0.03, "min_rate": 8}, ["/s"])
+    ok = analysis.check_thresholds(results, {"max_median_error": 0.03, "min_rate": 8}, ["/s"])
     assert all(c for c, _ in ok) and len(ok) == 2
-    bad = ev.check_thresholds(results, {"max_p95_error": 0.1, "max_cpu": 10}, ["/s"])
+    bad = analysis.check_thresholds(results, {"max_p95_error": 0.1, "max_cpu": 10}, ["/s"])
     assert [c for c, _ in bad] == [False, False]
-    missing = ev.check_thresholds(results, {"min_rate": 1}, ["/other"])
+    missing = analysis.check_thresholds(results, {"min_rate": 1}, ["/other"])
     assert [c for c, _ in missing] == [False]
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.evaluation import evaluate as ev  # noqa: E402
+from laserscan_toolbox.evaluation import analysis, playback  # noqa: E402
 
 
 def test_dropped_inputs_are_found_by_stamp():
@@ -17,10 +17,10 @@ def test_dropped_inputs_are_found_by_stamp():
            "/lidar": {"stamps": lidar.tolist()},
            "/odom": {"stamps": np.arange(0.01, 10, 0.02).tolist()}}
     out = np.concatenate([cam[::2], cam[1::2][:-5]])  # 5 camera frames lost
-    d = ev.match_inputs(out, bag)
+    d = analysis.match_inputs(out, bag)
     assert [(x["topic"], x["dropped"]) for x in d] == [("/cam/depth", 5)]
     merged = np.concatenate([cam, lidar[3:]])
-    d = {x["topic"]: x["dropped"] for x in ev.match_inputs(merged, bag)}
+    d = {x["topic"]: x["dropped"] for x in analysis.match_inputs(merged, bag)}
     assert d == {"/cam/depth": 0, "/lidar": 3}
 
 
@@ -28,10 +28,10 @@ def test_static_pose_chains_transforms():
     q_yaw = (0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4))  # 90 degrees
     tf = [("base_link", "mount", (1.0, 0.0, 0.2), q_yaw),
           ("mount", "laser", (0.5, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))]
-    m = ev.static_pose_in(tf, "laser")
+    m = analysis.static_pose_in(tf, "laser")
     assert m[:3, 3] == pytest.approx([1.0, 0.5, 0.2])
     assert math.atan2(m[1, 0], m[0, 0]) == pytest.approx(math.pi / 2)
-    assert ev.static_pose_in(tf, "camera") is None
+    assert analysis.static_pose_in(tf, "camera") is None
 
 
 class FakeScenario:
@@ -70,7 +70,7 @@ def test_ground_truth_stats_in_base_link_and_a_lidar_frame():
     run = {"records": {"/merged": {"scans": [scan(1.0, noisy), scan(2.0, noisy)]},
                        "/lidar": {"scans": [scan(1.5, lid, "laser")]}}}
     info = {"start": 0.0, "end": 10.0, "static_tf": [("base_link", "laser", (0.3, 0, 0.2), q)]}
-    res, ex = ev.ground_truth_stats(run, info, sc, band=(0.0, 0.05, 1.0), beam_window=0)
+    res, ex = analysis.ground_truth_stats(run, info, sc, band=(0.0, 0.05, 1.0), beam_window=0)
     m = res["/merged"]
     assert m["scans"] == 2 and m["median_error"] == pytest.approx(0.02, abs=1e-4)
     assert m["false"] == 20 and m["z_band"] == [0.05, 1.0]
@@ -88,8 +88,8 @@ MAX_STAMP = 4294967295.999999999  # ROS 1 time's largest value
 def test_header_stamp_reads_the_largest_ros_time():
     import struct
     raw = struct.pack("<III", 7, 0xFFFFFFFF, 999999999) + b"\x00\x00\x00\x00"
-    assert ev._header_stamp(raw) == pytest.approx(MAX_STAMP, abs=1e-6)
-    assert ev._header_stamp(b"\x00" * 8) is None  # too short for a header
+    assert playback._header_stamp(raw) == pytest.approx(MAX_STAMP, abs=1e-6)
+    assert playback._header_stamp(b"\x00" * 8) is None  # too short for a header
 
 
 def _records(stamps, recv):
@@ -118,7 +118,7 @@ def test_extreme_and_missing_stamps_are_reported(tmp_path):
     run = {"records": {"/far": _records(ahead[:4] + [None, 0.0], bag_t + 0.002),
                        "/dup": _records([5.0, 5.0, 5.0], bag_t[:3])},
            "cpu": {}, "outputs": {}}
-    stats = ev.output_stats(run, bag_info)
+    stats = analysis.output_stats(run, bag_info)
     far = stats["/far"]
     assert far["count"] == 6
     assert far["latency_min_s"] == pytest.approx(bag_t[0] + 0.002 - MAX_STAMP + 1, rel=1e-9)
@@ -202,12 +202,56 @@ def test_glass_beams_are_judged_apart_from_the_range_error():
     # A lidar-like scan: through the pane to the circle on beams 0..19, exact elsewhere.
     run = {"records": {"/merged": {"scans": [scan(1.0, clear)]}}}
     info = {"start": 0.0, "end": 10.0, "static_tf": []}
-    res, _ = ev.ground_truth_stats(run, info, sc, band=(0.0, 0.05, 1.0), beam_window=0)
+    res, _ = analysis.ground_truth_stats(run, info, sc, band=(0.0, 0.05, 1.0), beam_window=0)
     m = res["/merged"]
     assert m["median_error"] < 1e-4 and m["false"] == 0 and m["missed"] == 0
-    g = ev.glass_stats(run, info, sc, (0.0, 0.05, 1.0))["/merged"]
+    g = analysis.glass_stats(run, info, sc, (0.0, 0.05, 1.0))["/merged"]
     assert (g["glass_beams"], g["found"]) == (20, 0)
     seen_pane = clear.copy()
     seen_pane[:20] = 0.98
-    g = ev.glass_stats({"records": {"/m": {"scans": [scan(1.0, seen_pane)]}}}, info, sc, (0.0, 0.05, 1.0))["/m"]
+    g = analysis.glass_stats({"records": {"/m": {"scans": [scan(1.0, seen_pane)]}}}, info, sc, (0.0, 0.05, 1.0))["/m"]
     assert (g["glass_beams"], g["found"]) == (20, 20)
+
+
+# ------------------------------------------------ results.json and the demo's summary
+
+def test_results_json_and_demo_summary_link_each_section_once(tmp_path):
+    """write_json takes numpy figures; demo_summary reads them back and links the CPU
+    experiment and the rviz picture from report.md once, however often it runs."""
+    import json
+    from laserscan_toolbox.evaluation import report
+    results = {"bag": "/x/s.bag", "bag_duration_s": np.float64(6.0), "outputs": {},
+               "inputs": {}, "cpu": {"manager": {"cpu_percent": np.float32(12.5)}},
+               "thresholds": [{"ok": True, "check": "rate"}], "beams": np.arange(3),
+               "frames": {"odom"}}
+    report.write_json(results, str(tmp_path / "results.json"))
+    back = json.loads((tmp_path / "results.json").read_text())
+    assert back["beams"] == [0, 1, 2] and back["frames"] == ["odom"]
+    assert back["cpu"]["manager"]["cpu_percent"] == 12.5
+    (tmp_path / "cpu").mkdir()
+    row = {"points_per_camera": 10000, "merged": {"manager_cpu_percent": 3.0, "bytes_per_s": 2e3},
+           "raw": {"bytes_per_s": 4e6}}
+    report.write_json({"rows": [row]}, str(tmp_path / "cpu" / "cpu_results.json"))
+    (tmp_path / "report.md").write_text("# Pipeline evaluation\n")
+    (tmp_path / "rviz.png").write_bytes(b"png")
+    for _ in range(2):
+        text = report.demo_summary(str(tmp_path), "total 1s")
+    assert text.startswith("Demo figures (total 1s)\nbag s.bag: 6.0 s")
+    assert "PASS rate" in text and "10k points: manager 3.0%" in text
+    md = (tmp_path / "report.md").read_text()
+    assert md.count("(cpu/cpu_experiment.md)") == 1 and md.count("(rviz.png)") == 1
+
+
+def test_input_stats_rate_from_stamps_else_rosbag_frequency():
+    topics = {"/scan": {"type": "sensor_msgs/LaserScan", "count": 5, "frequency": 3.0,
+                        "stamps": [0.0, 0.1, 0.2, 0.3, 0.4], "bytes": 1000,
+                        "age": [0.02, 0.01, 0.03, 0.02, 0.02]},
+              "/tf": {"type": "tf2_msgs/TFMessage", "count": 4, "frequency": 7.5, "stamps": [],
+                      "bytes": 400, "age": []}}
+    s = analysis.input_stats({"topics": topics, "start": 0.0, "end": 2.0})
+    assert s["/scan"]["rate_hz"] == pytest.approx(10.0)
+    assert s["/scan"]["age_median_s"] == pytest.approx(0.02)
+    assert s["/scan"]["age_min_s"] == pytest.approx(0.01)
+    assert s["/scan"]["bytes_per_s"] == pytest.approx(500.0)
+    assert s["/tf"] == {"type": "tf2_msgs/TFMessage", "count": 4, "rate_hz": 7.5,
+                        "bytes_per_s": 200.0, "age_median_s": None, "age_min_s": None}

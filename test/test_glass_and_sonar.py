@@ -15,7 +15,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 from laserscan_toolbox.simulation import raycast  # noqa: E402
 from laserscan_toolbox.simulation.robot import Robot, Sonar, Lidar, Camera  # noqa: E402
 from laserscan_toolbox.simulation.scenario import Scenario, TOPICS  # noqa: E402
-from laserscan_toolbox.simulation.world import World, Box, Cylinder, shop_floor  # noqa: E402
+from laserscan_toolbox.simulation.world import World, Box, Cylinder  # noqa: E402
 
 PANE_X, WALL_X = 3.0, 6.0
 

@@ -1,5 +1,7 @@
-"""Markdown reports and PNG plots of the evaluation (matplotlib, Agg backend)."""
+"""Markdown reports and PNG plots of the evaluation (matplotlib, Agg backend), and the
+figures as JSON (results.json)."""
 
+import json
 import math
 import os
 
@@ -11,6 +13,23 @@ def _plt():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
+
+
+def json_default(o):
+    """JSON for what json.dump does not know: numpy scalars and arrays, sets; else str."""
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, set):
+        return list(o)
+    return str(o)
+
+
+def write_json(data, path):
+    """Figures to a JSON file (results.json and the experiments' ones)."""
+    with open(path, "w") as f:
+        json.dump(data, f, indent=1, default=json_default)
 
 
 def fmt(v, scale=1.0, digits=1):
@@ -401,7 +420,6 @@ def summary_text(res):
 
 def demo_summary(outdir, timing=""):
     """Key figures of a demo run; also links the CPU experiment from report.md."""
-    import json
     with open(os.path.join(outdir, "results.json")) as f:
         res = json.load(f)
     lines = ["Demo figures (%s)" % timing if timing else "Demo figures", summary_text(res)]
@@ -416,24 +434,26 @@ def demo_summary(outdir, timing=""):
                          "%s MB/s raw" % (r["points_per_camera"] // 1000,
                                           fmt(m["manager_cpu_percent"]),
                                           fmt(m["bytes_per_s"], 1e-3), fmt(w["bytes_per_s"], 1e-6, 2)))
-        report = os.path.join(outdir, "report.md")
-        with open(report) as f:
-            text = f.read()
-        if "cpu/cpu_experiment.md" not in text:
-            with open(report, "a") as f:
-                f.write("\n## CPU against depth points (paper Fig. 8)\n\nSee "
-                        "[cpu/cpu_experiment.md](cpu/cpu_experiment.md).\n\n"
-                        "![cpu against points](cpu/cpu_vs_points.png)\n")
+        _append_once(os.path.join(outdir, "report.md"), "cpu/cpu_experiment.md",
+                     "\n## CPU against depth points (paper Fig. 8)\n\nSee "
+                     "[cpu/cpu_experiment.md](cpu/cpu_experiment.md).\n\n"
+                     "![cpu against points](cpu/cpu_vs_points.png)\n")
     report = os.path.join(outdir, "report.md")
     if os.path.isfile(os.path.join(outdir, "rviz.png")) and os.path.isfile(report):
-        with open(report) as f:
-            text = f.read()
-        if "(rviz.png)" not in text:
-            with open(report, "a") as f:
-                f.write("\n## rviz\n\nconfig/rviz/pipeline.rviz while the scenario plays "
-                        "(merged scan red, lidars green, cameras blue/violet).\n\n"
-                        "![rviz](rviz.png)\n")
+        _append_once(report, "(rviz.png)",
+                     "\n## rviz\n\nconfig/rviz/pipeline.rviz while the scenario plays "
+                     "(merged scan red, lidars green, cameras blue/violet).\n\n"
+                     "![rviz](rviz.png)\n")
     return "\n".join(lines)
+
+
+def _append_once(path, marker, section):
+    """Appends ``section`` to the file unless ``marker`` is in it already (a rerun)."""
+    with open(path) as f:
+        if marker in f.read():
+            return
+    with open(path, "a") as f:
+        f.write(section)
 
 
 if __name__ == "__main__":

@@ -14,7 +14,6 @@ three times through the pipeline (one nodelet manager):
   and the consumer's own CPU.
 """
 
-import json
 import os
 import subprocess
 import sys
@@ -22,9 +21,10 @@ import time
 
 import numpy as np
 
-from ..evaluation import evaluate as ev
-from ..evaluation.report import fmt, table
-from ..ros.rosrun import REPO, RunError
+from ..evaluation import metrics
+from ..evaluation.playback import DEFAULT_LAUNCH, inspect_bag, run_pipeline
+from ..evaluation.report import fmt, table, write_json
+from ..ros.rosrun import REPO, RunError, Session
 
 POINTS = (10000, 50000, 100000, 200000, 300000)
 QUICK_POINTS = (10000, 100000, 300000)
@@ -42,14 +42,14 @@ def simulate(path, duration, points, seed=0):
 
 def measure(session, bag, launch, launch_args, consumer, merged_topic):
     """One playback; consumer 'merged' or 'raw'. Returns figures."""
-    info = ev.inspect_bag(bag)
+    info = inspect_bag(bag)
     if consumer == "merged":
         types = ("sensor_msgs/LaserScan",)
     else:
         types = ("sensor_msgs/PointCloud2", "sensor_msgs/LaserScan")
-    run = ev.run_pipeline(session, info, launch, launch_args, progress=False,
-                          record_types=types, label="%s_%s" % (os.path.basename(bag), consumer),
-                          select=_selector(consumer, merged_topic, info))
+    run = run_pipeline(session, info, launch, launch_args, progress=False,
+                       record_types=types, label="%s_%s" % (os.path.basename(bag), consumer),
+                       select=_selector(consumer, merged_topic, info))
     own = run["consumer_cpu_percent"]
     dur = info["end"] - info["start"]
     recv = {t: d for t, d in run["records"].items()}
@@ -60,14 +60,14 @@ def measure(session, bag, launch, launch_args, consumer, merged_topic):
         total_bytes += b
         st = [s for s in d["stamp"] if s is not None]
         out["topics"][t] = {"messages": len(d["bytes"]), "bytes_per_s": b / dur,
-                            "rate_hz": ev.metrics.rate_stats(st)["rate"]}
+                            "rate_hz": metrics.rate_stats(st)["rate"]}
     out["bytes_per_s"] = total_bytes / dur
     # lidar scans come from the bag: what a consumer of raw inputs also takes
     if consumer == "raw":
         for t, v in info["topics"].items():
             if v["type"] == "sensor_msgs/LaserScan" and t not in recv:
                 out["topics"][t] = {"messages": v["count"], "bytes_per_s": v["bytes"] / dur,
-                                    "rate_hz": ev.metrics.rate_stats(v["stamps"])["rate"]}
+                                    "rate_hz": metrics.rate_stats(v["stamps"])["rate"]}
                 out["bytes_per_s"] += v["bytes"] / dur
     out["manager_cpu_percent"] = sum(c["cpu_percent"] for n, c in run["cpu"].items()
                                      if "nodelet manager" in n)
@@ -86,7 +86,7 @@ def _selector(consumer, merged_topic, info):
     return select
 
 
-def experiment(outdir, points=POINTS, duration=4.0, launch=ev.DEFAULT_LAUNCH, launch_args=(),
+def experiment(outdir, points=POINTS, duration=4.0, launch=DEFAULT_LAUNCH, launch_args=(),
                merged_topic="/merged_scan", seed=0, progress=True, log=print, workdir=None):
     os.makedirs(outdir, exist_ok=True)
     rows = []
@@ -95,7 +95,7 @@ def experiment(outdir, points=POINTS, duration=4.0, launch=ev.DEFAULT_LAUNCH, la
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(points) * 4, desc="cpu experiment", unit="step", file=sys.stderr)
-    with ev.Session(workdir=workdir) as session:
+    with Session(workdir=workdir) as session:
         for n in points:
             bag = os.path.join(session.workdir, "points_%d.bag" % n)
             simulate(bag, duration, n, seed)
@@ -123,8 +123,7 @@ def experiment(outdir, points=POINTS, duration=4.0, launch=ev.DEFAULT_LAUNCH, la
         bar.close()
     res = {"points": list(points), "duration_s": duration, "rows": rows,
            "wall_s": time.time() - t0}
-    with open(os.path.join(outdir, "cpu_results.json"), "w") as f:
-        json.dump(res, f, indent=1, default=ev._json_default)
+    write_json(res, os.path.join(outdir, "cpu_results.json"))
     plot(res, os.path.join(outdir, "cpu_vs_points.png"))
     write_markdown(res, os.path.join(outdir, "cpu_experiment.md"))
     return res
@@ -203,7 +202,7 @@ def main(argv=None):
     p.add_argument("--duration", type=float, default=4.0, help="bag length per run, s")
     p.add_argument("--quick", action="store_true",
                    help="%s points, 2 s bags" % "/".join(map(str, QUICK_POINTS)))
-    p.add_argument("--launch", default=ev.DEFAULT_LAUNCH)
+    p.add_argument("--launch", default=DEFAULT_LAUNCH)
     p.add_argument("--arg", action="append", default=[], metavar="NAME:=VALUE")
     p.add_argument("--merged-topic", default="/merged_scan")
     p.add_argument("--seed", type=int, default=0)

@@ -12,13 +12,13 @@ A benchmark, not a test: it prints figures against the targets (growth below 1 M
 warm-up, no stall) and writes soak.json, soak.md and soak.png into the output folder.
 """
 
-import json
 import os
 import sys
 import time
 
-from ..evaluation.report import fmt, table
-from ..ros.rosrun import REPO, BagPlayer, Launch, RunError
+from ..evaluation.report import fmt, table, write_json
+from ..ros.rosrun import (REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name,
+                          wait_connected)
 
 DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
 OUTPUT_TOPICS = ("/merged_scan", "/lidar_scan", "/camera_left/scan", "/camera_right/scan")
@@ -164,9 +164,6 @@ class _Arrivals:
     def _cb(self, _msg, topic):
         self.times[topic].append(time.time())
 
-    def connected(self):
-        return all(s.get_num_connections() > 0 for s in self.subs)
-
     def close(self):
         for s in self.subs:
             s.unregister()
@@ -186,31 +183,27 @@ def _rss_sample(procs):
 
 def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, camera_points=10000, seed=0,
         stall_s=1.0, launch_file=DEFAULT_LAUNCH, log=print):
-    from ..evaluation import evaluate as ev
     from .cpu import simulate
     from .transport import _proc_name, tree_processes
     os.makedirs(outdir, exist_ok=True)
     load0 = os.getloadavg()
-    with ev.Session() as session:
+    with Session() as session:
         wd = session.workdir
         bag = simulate(os.path.join(wd, "soak.bag"), bag_duration, camera_points, seed)
         launch = Launch(launch_file, [], os.path.join(wd, "roslaunch.log")).start()
         arrivals = player = None
         try:
-            launch.wait_ready(session.master.master, ignore_nodes=(ev._own_name(),))
+            launch.wait_ready(session.master.master, ignore_nodes=(own_node_name(),))
             arrivals = _Arrivals(OUTPUT_TOPICS)
-            deadline = time.time() + 20.0
-            while not arrivals.connected():
-                if time.time() > deadline:
-                    raise RunError("could not connect to %s:\n%s" % (", ".join(OUTPUT_TOPICS),
-                                                                     ev._tail(launch.log_path)))
-                time.sleep(0.1)
+            if not wait_connected(arrivals.subs, timeout=20.0):
+                raise RunError("could not connect to %s:\n%s" % (", ".join(OUTPUT_TOPICS),
+                                                                 log_tail(launch.log_path)))
             player = BagPlayer(bag, os.path.join(wd, "play.log"), rate=rate, extra=["-l"]).start()
             # The feed starts after rosbag play's 1 s delay; the first outputs mark it.
             deadline = time.time() + 30.0
             while not arrivals.times["/merged_scan"]:
                 if time.time() > deadline or not player.running():
-                    raise RunError("no /merged_scan within 30 s of the feed:\n%s" % ev._tail(launch.log_path))
+                    raise RunError("no /merged_scan within 30 s of the feed:\n%s" % log_tail(launch.log_path))
                 time.sleep(0.05)
             start = time.time()
             rss = {}
@@ -229,7 +222,7 @@ def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, ca
                     break
                 if launch.proc.poll() is not None or not player.running():
                     raise RunError("the pipeline or the player stopped after %.0f s:\n%s"
-                                   % (now - start, ev._tail(launch.log_path)))
+                                   % (now - start, log_tail(launch.log_path)))
                 time.sleep(min(0.5, max(0.0, next_sample - time.time())))
             end = time.time()
             # Processes that exited before the end (e.g. the check_config runs) are not the
@@ -247,8 +240,7 @@ def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, ca
            "camera_points": camera_points, "seed": seed, "stall_s": stall_s, "loadavg_before": load0,
            "loadavg_after": os.getloadavg(), "cpu_count": os.cpu_count(), "rss": rss,
            "summary": summarize(rss, times, start, end, stall_s)}
-    with open(os.path.join(outdir, "soak.json"), "w") as f:
-        json.dump(res, f, indent=1)
+    write_json(res, os.path.join(outdir, "soak.json"))
     text = markdown(res)
     with open(os.path.join(outdir, "soak.md"), "w") as f:
         f.write(text)

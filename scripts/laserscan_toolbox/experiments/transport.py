@@ -10,14 +10,14 @@ in ms, CPU in % of one core (per second of window), outputs counted, and the rat
 standalone / manager.
 """
 
-import json
 import os
 import statistics
 import sys
 import time
 
-from ..evaluation.report import fmt, table
-from ..ros.rosrun import REPO, BagPlayer, Launch, RunError
+from ..evaluation.report import fmt, table, write_json
+from ..ros.rosrun import (REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name,
+                          wait_connected)
 
 MODES = ("manager", "standalone")
 OUTPUT_TOPICS = ("/merged_scan", "/lidar_scan")
@@ -144,20 +144,19 @@ def markdown_table(summary):
 
 def measure(session, bag, mode, launch_file, launch_args, label, tail=0.5):
     """Plays ``bag`` through the launch in ``mode``; returns that run's figures."""
-    from ..evaluation import evaluate as ev
     args = list(launch_args) + ["standalone:=%s" % ("true" if mode == "standalone" else "false")]
     wd = session.workdir
     launch = Launch(launch_file, args, os.path.join(wd, label + "_roslaunch.log")).start()
     rec = None
     try:
         master = session.master.master
-        pubs = launch.wait_ready(master, ignore_nodes=(ev._own_name(),))
+        pubs = launch.wait_ready(master, ignore_nodes=(own_node_name(),))
         missing = [t for t in OUTPUT_TOPICS if t not in pubs]
         if missing:
             raise RunError("%s: the pipeline does not publish %s:\n%s"
-                           % (mode, ", ".join(missing), ev._tail(launch.log_path)))
+                           % (mode, ", ".join(missing), log_tail(launch.log_path)))
         rec = _Counter(OUTPUT_TOPICS)
-        if not rec.wait_connected():
+        if not wait_connected(rec.subs, timeout=10.0):
             raise RunError("%s: could not connect to %s" % (mode, ", ".join(OUTPUT_TOPICS)))
         procs = tree_processes(launch.proc.pid)
         player = BagPlayer(bag, os.path.join(wd, label + "_play.log"))
@@ -174,14 +173,14 @@ def measure(session, bag, mode, launch_file, launch_args, label, tail=0.5):
         counts = {t: rec.count[t] - n0[t] for t in OUTPUT_TOPICS}
         if player.proc.returncode != 0:
             raise RunError("rosbag play failed (status %s):\n%s"
-                           % (player.proc.returncode, ev._tail(player.log_path)))
+                           % (player.proc.returncode, log_tail(player.log_path)))
         if launch.proc.poll() is not None:
             raise RunError("%s: the pipeline stopped during playback:\n%s"
-                           % (mode, ev._tail(launch.log_path)))
+                           % (mode, log_tail(launch.log_path)))
         d = cpu_delta(before, after)
         if counts["/merged_scan"] == 0:
             raise RunError("%s: no /merged_scan during playback:\n%s"
-                           % (mode, ev._tail(launch.log_path)))
+                           % (mode, log_tail(launch.log_path)))
         fig = run_figures(d["total_s"], window, counts["/merged_scan"], d["loader_s"])
         fig.update({"mode": mode, "processes": len(d["per_process"]), "counts": counts,
                     "per_process_cpu_s": d["per_process"], "lost": d["lost"]})
@@ -204,14 +203,6 @@ class _Counter:
     def _cb(self, _msg, topic):
         self.count[topic] += 1
 
-    def wait_connected(self, timeout=10.0):
-        deadline = time.time() + timeout
-        while time.time() < deadline:
-            if all(s.get_num_connections() > 0 for s in self.subs):
-                return True
-            time.sleep(0.05)
-        return False
-
     def close(self):
         for s in self.subs:
             s.unregister()
@@ -219,13 +210,12 @@ class _Counter:
 
 def experiment(outdir, duration=12.0, camera_points=None, repeat=2, launch_file=DEFAULT_LAUNCH,
                launch_args=(), seed=0, log=print):
-    from ..evaluation import evaluate as ev
     from .cpu import simulate
     os.makedirs(outdir, exist_ok=True)
     t_start = time.time()
     runs = []
     load0 = os.getloadavg()
-    with ev.Session() as session:
+    with Session() as session:
         bag = os.path.join(session.workdir, "transport.bag")
         if camera_points is None:
             _simulate_default(bag, duration, seed)
@@ -248,8 +238,7 @@ def experiment(outdir, duration=12.0, camera_points=None, repeat=2, launch_file=
            "seed": seed, "launch": launch_file, "launch_args": list(launch_args),
            "loadavg_before": load0, "loadavg_after": os.getloadavg(), "cpu_count": os.cpu_count(),
            "runs": runs, "summary": summary, "wall_s": time.time() - t_start}
-    with open(os.path.join(outdir, "transport_results.json"), "w") as f:
-        json.dump(res, f, indent=1, default=_json_default)
+    write_json(res, os.path.join(outdir, "transport_results.json"))
     text = markdown(res)
     with open(os.path.join(outdir, "transport_experiment.md"), "w") as f:
         f.write(text)
@@ -264,14 +253,6 @@ def _simulate_default(bag, duration, seed):
                         "--seed", str(seed), "--no-progress"], capture_output=True, text=True)
     if p.returncode != 0:
         raise RunError("simulate_scenario failed: %s" % (p.stderr[-2000:] or p.stdout[-2000:]))
-
-
-def _json_default(o):
-    if hasattr(o, "item"):
-        return o.item()
-    if isinstance(o, (set, tuple)):
-        return list(o)
-    return str(o)
 
 
 def markdown(res):

@@ -1,4 +1,5 @@
-"""Running ROS pieces for the tools: a private master, a roslaunch, rosbag play, CPU meters.
+"""Running ROS pieces for the tools: a private master and the tool's own rospy node (``Session``),
+a roslaunch, rosbag play, CPU meters.
 
 Every tool starts its own ``roscore`` on a free port with ROS_HOME / ROS_LOG_DIR in a
 temporary folder, so it never collides with a robot's master or with a test's. Child
@@ -6,10 +7,12 @@ processes get their own process group and are stopped by that id only.
 """
 
 import os
+import shutil
 import signal
 import socket
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 
@@ -103,6 +106,47 @@ class Master:
 
     def __exit__(self, *exc):
         stop_process(self.proc)
+
+
+class Session:
+    """A private master and this process's rospy node, shared by several runs."""
+
+    def __init__(self, workdir=None, keep=False):
+        self.own_dir = workdir is None
+        self.workdir = workdir or tempfile.mkdtemp(prefix="laserscan_eval_")
+        self.keep = keep
+        self.master = None
+
+    def __enter__(self):
+        self.master = Master(os.path.join(self.workdir, "ros")).__enter__()
+        import rospy
+        rospy.init_node("laserscan_evaluate", anonymous=True, disable_signals=True,
+                        disable_rosout=True)
+        return self
+
+    def __exit__(self, *exc):
+        import rospy
+        rospy.signal_shutdown("evaluation done")
+        self.master.__exit__(*exc)
+        if self.own_dir and not self.keep:
+            shutil.rmtree(self.workdir, ignore_errors=True)
+
+
+def own_node_name():
+    """This process's rospy node name (a Session's)."""
+    import rospy
+    return rospy.get_name()
+
+
+def wait_connected(subscribers, timeout=5.0):
+    """Waits until every rospy subscriber is connected to its publisher (wall time: with
+    use_sim_time the clock stands still before playback)."""
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if all(s.get_num_connections() > 0 for s in subscribers):
+            return True
+        time.sleep(0.05)
+    return False
 
 
 class Launch:

@@ -99,8 +99,7 @@ def bag_screenshot(bag, launch_file, config, out_png, start=0.0, play=6.0, launc
     the demo and the tests)."""
     import threading
     import time
-    from ..evaluation.evaluate import Session
-    from .rosrun import BagPlayer, Launch
+    from .rosrun import BagPlayer, Launch, Session
     err = []
     with Session(workdir=workdir) as session:
         launch = Launch(launch_file, launch_args,
