@@ -52,10 +52,22 @@ def test_rendered_frames_are_16uc1_millimetres():
     assert cam.width == 64 and (depth > 0).sum() > 100 and depth.max() <= 8000
 
 
+def test_converter_params_keep_or_switch_off_the_range_noise_model():
+    with_noise = cpb.converter_params(cpb.CONFIG, "image")
+    assert with_noise["range_noise_std"] > 0 and with_noise["publish_filtered_cloud"] is False
+    without = cpb.converter_params(cpb.CONFIG, "image", range_noise=False)
+    assert without["range_noise_std"] == 0 and without["range_noise_std_per_m2"] == 0
+    assert without["max_height"] == with_noise["max_height"]  # nothing else changes
+    baseline = cpb.converter_params(cpb.CONFIG, "baseline")
+    assert baseline["row_stride"] >= 1000000 and baseline["column_stride"] >= 1000000
+
+
 def test_short_run_of_every_path_and_usage_errors():
     exe = os.path.join(os.path.dirname(HERE), "scripts", "camera_path_benchmark")
     out = subprocess.run([exe, "--frames", "0"], capture_output=True, text=True, timeout=30)
     assert out.returncode == 2 and "frames" in out.stderr
+    out = subprocess.run([exe, "--range-noise", "maybe"], capture_output=True, text=True, timeout=30)
+    assert out.returncode == 2 and "--range-noise" in out.stderr
     out = subprocess.run([exe, "--width", "64", "--height", "48", "--frames", "5", "--repeat", "1", "--rate", "10"],
                          capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-3000:]

@@ -174,15 +174,25 @@ def _feed_until(pub, done, rate, what, manager, workdir):
     return k
 
 
-def measure(path, pub, frames, rate, workdir, label, source="tcp", config=CONFIG):
-    """One run of one path in a fresh manager, the frames from `source` ("tcp": published by `pub`;
-    "manager": the stand-in nodelet, fed once by `pub`). Returns its figures."""
-    import rosgraph
+def converter_params(config, path, range_noise=True):
+    """The converters' parameters for one path: the config's, without the filtered cloud, the
+    range noise model off when `range_noise` is false, one pixel read on the baseline path."""
     with open(config) as f:
         params = yaml.safe_load(f)
     params["publish_filtered_cloud"] = False
+    if not range_noise:
+        # The converter's default: no range noise model (its extra passes cost both paths alike).
+        params["range_noise_std"] = params["range_noise_std_per_m2"] = 0.0
     if path == "baseline":
         params["row_stride"] = params["column_stride"] = 1000000
+    return params
+
+
+def measure(path, pub, frames, rate, workdir, label, source="tcp", config=CONFIG, range_noise=True):
+    """One run of one path in a fresh manager, the frames from `source` ("tcp": published by `pub`;
+    "manager": the stand-in nodelet, fed once by `pub`). Returns its figures."""
+    import rosgraph
+    params = converter_params(config, path, range_noise)
     rosgraph.Master("/camera_path_benchmark").setParam("/bench_converter", params)
     procs = []
     try:
@@ -245,7 +255,7 @@ def measure(path, pub, frames, rate, workdir, label, source="tcp", config=CONFIG
 
 
 def experiment(width=640, height=480, frames=150, rate=15.0, repeat=2, workdir=None, log=print,
-               sources=("manager", "tcp"), config=CONFIG):
+               sources=("manager", "tcp"), config=CONFIG, range_noise=True):
     """{source: results} for each source of frames ("manager", "tcp"; see the module's doc)."""
     import tempfile
     workdir = workdir or tempfile.mkdtemp(prefix="camera_path_benchmark_")
@@ -261,7 +271,7 @@ def experiment(width=640, height=480, frames=150, rate=15.0, repeat=2, workdir=N
                 for r in range(repeat):
                     for path in SOURCES[source]:
                         run = measure(path, pub, frames, rate, workdir, "%s_%s_%d" % (source, path, r), source,
-                                      config)
+                                      config, range_noise)
                         runs.append(run)
                         log("%s source, %s path, run %d: %d scans of %d frames, manager CPU %.3f ms per frame"
                             % (source, path, r + 1, run["scans"], run["frames"], run["cpu_ms_per_frame"]))
@@ -320,6 +330,9 @@ def main(argv=None):
     p.add_argument("--config", default=CONFIG,
                    help="the converters' parameters (default: the simulated robot's left camera, with its range "
                         "noise model)")
+    p.add_argument("--range-noise", choices=("config", "off"), default="config",
+                   help="the converters' range noise model as the config sets it, or off (the converter's "
+                        "default)")
     try:
         a = p.parse_args(argv)
     except SystemExit as e:
@@ -331,7 +344,8 @@ def main(argv=None):
     try:
         results = experiment(a.width, a.height, a.frames, a.rate, a.repeat,
                              log=lambda m: print(m, file=sys.stderr),
-                             sources=("manager", "tcp") if a.source == "both" else (a.source,), config=a.config)
+                             sources=("manager", "tcp") if a.source == "both" else (a.source,), config=a.config,
+                             range_noise=a.range_noise == "config")
     except RunError as e:
         print("camera_path_benchmark: %s" % e, file=sys.stderr)
         return 3
