@@ -4,7 +4,7 @@ Both scans are arrays of ranges over the same beams (same angle_min, angle_incre
 REP 117: +Inf = no return, -Inf = too close, NaN = invalid; only finite, positive ranges
 are obstacles.
 
-Definitions (documented in the README, Tools, used by evaluate_bag and the tests):
+Definitions (documented in docs/tools.md, used by evaluate_bag and the tests):
 - range error: |output - ideal| on beams where both see something. With
   ``beam_window`` k > 0 the error of beam i is the smallest |output_i - ideal_j| for
   j in [i-k, i+k], so an obstacle edge that falls one beam off is not counted as a
