@@ -172,8 +172,8 @@ void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message
     // The usual case, the transform already there: convert now, without the filter's extra trip
     // through the callback queue (and its second tf query).
     const tf2::BufferCore& transforms = tf_buffer_;
-    if (transforms.canTransform(params_.transform.reference_frame, laserscan_common::tf2FrameId(message->header.frame_id),
-                                message->header.stamp))
+    if (transforms.canTransform(params_.transform.reference_frame,
+                                laserscan_common::tf2FrameId(message->header.frame_id), message->header.stamp))
     {
       convert(*message, Arrival{ message, ros::Time(), info });
       return;
@@ -214,9 +214,9 @@ std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& head
   if (header.frame_id.empty())
     return "empty frame_id (stamp " + stamp + ")";
   // Only looked up: any stamp that leaves tf2 and roscpp room for what they add to it.
-  const laserscan_common::StampLimits limits{ laserscan_common::kMaxStampAheadNs,
-                                              params_.transform.tf_buffer_duration +
-                                                params_.transform.transform_tolerance };
+  const laserscan_common::StampLimits limits{
+    laserscan_common::kMaxStampAheadNs, params_.transform.tf_buffer_duration + params_.transform.transform_tolerance
+  };
   if (const char* fault = laserscan_common::stampFault(header.stamp.sec, header.stamp.nsec, 0,
                                                        laserscan_common::StampUse::kLookup, limits))
     return std::string(fault) + " (stamp " + stamp + ")";
@@ -266,7 +266,8 @@ void DepthFilterScanConverter::transformFailed(const boost::shared_ptr<const M>&
   if (due(warned_tf_))
     ROS_WARN("[%s] dropped a cloud: no transform %s -> %s at %s: %s", private_nh_.getNamespace().c_str(),
              cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
-             laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec).c_str(), last_tf_reason_.c_str());
+             laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec).c_str(),
+             last_tf_reason_.c_str());
 }
 
 std::string DepthFilterScanConverter::viewOf(const Cloud& cloud, const Arrival& /*arrival*/, CloudView& view)
@@ -333,8 +334,8 @@ void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
     const auto transform = tf_buffer_.lookupTransform(params_.transform.reference_frame, frame, cloud->header.stamp);
     // Each stored transform is finite (tf_reader_), but a chain of them can sum to infinity.
     if (!laserscan_common::transformIsFinite(transform.transform))
-      throw tf2::TransformException("the transform '" + frame + "' -> '" + params_.transform.reference_frame +
-                                    "' at " + laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec) +
+      throw tf2::TransformException("the transform '" + frame + "' -> '" + params_.transform.reference_frame + "' at " +
+                                    laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec) +
                                     " is not finite (a chain of transforms sums to infinity)");
     camera_to_reference = tf2::transformToEigen(transform);
   }
