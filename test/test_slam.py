@@ -243,3 +243,18 @@ def test_targets_pass_and_fail_on_the_right_figures():
     assert len(failed) == 4
     # no 3D obstacles in either map is not "twice as many"
     assert not all(ok for ok, _ in slam.check_targets(results(f3l=0.0, f3u=0.0)))
+
+
+def test_map_figure_puts_each_slam_map_under_its_own_scans_known_pose_map(tmp_path):
+    assert slam.map_columns({"/lidar_scan": 0, "/slam_scan": 0, "/merged_scan": 0},
+                            {"/slam_scan": 0, "/lidar_scan": 0}) == ["/lidar_scan", "/slam_scan", "/merged_scan"]
+    assert slam.map_columns({"/lidar_scan": 0}, {"/lidar_scan": 0, "/x": 0}) == ["/lidar_scan", "/x"]
+    refs, _, _ = room_refs()
+    p_occ, limits = slam_map_of(lambda x, y: (np.abs(x) < RES) & (y > 0) & (y < 3), 0.0, np.zeros(2))
+    grid = slam.ResampledMap(p_occ, limits, 0.0, np.zeros(2), refs)
+    refs["maps"] = {"/lidar_scan": refs["reference"], "/slam_scan": refs["reference"],
+                    "/merged_scan": refs["reference"]}
+    figures = {"/lidar_scan": {"path_rmse_m": 0.01, "map_precision": 0.9, "obstacles_3d_found": 0.1}}
+    out = tmp_path / "slam_maps.png"
+    assert slam.plot_maps(figures, {"/lidar_scan": {"grid": grid}}, refs, str(out)) == "slam_maps.png"
+    assert out.stat().st_size > 1000

@@ -463,30 +463,48 @@ def check_targets(res, targets=TARGETS, lidar_topic=DEFAULT_TOPICS[0],
 
 # ---------------------------------------------------------------- plots
 
+def map_columns(known, runs):
+    """The topics of the map figure's columns after the ground truth: the known-pose maps' topics,
+    then those only SLAM ran on; each SLAM map goes under the known-pose map of its own scan."""
+    return list(known) + [t for t in runs if t not in known]
+
+
 def plot_maps(slam, runs, refs, path):
     """Ground truth, the known-pose maps (mapping experiment) and the SLAM maps, one PNG."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     known = refs.get("maps", {})
-    cols = max(len(known), len(runs)) + 1
+    # One column per topic: a SLAM map under the known-pose map of the same scan.
+    topics = map_columns(known, runs)
+    cols = len(topics) + 1
     fig, axes = plt.subplots(2, cols, figsize=(4.2 * cols, 7.0), squeeze=False)
     extent = mapping.grid_extent(refs)
     axes[0][0].imshow(mapping.truth_image(refs), origin="lower", extent=extent,
                       interpolation="nearest")
     axes[0][0].set_title("ground truth (red: above the lidars' plane)", fontsize=8)
-    axes[1][0].axis("off")
-    for ax, (name, g) in zip(axes[0][1:], known.items()):
+    used = {(0, 0)}
+    for name, g in known.items():
+        col = 1 + topics.index(name)
+        ax = axes[0][col]
+        used.add((0, col))
         ax.imshow(mapping.map_image(g, refs), origin="lower", extent=extent,
                   interpolation="nearest")
         ax.set_title("known poses: %s" % name, fontsize=8)
-    for ax, (topic, r) in zip(axes[1][1:], runs.items()):
+    for topic, r in runs.items():
+        col = 1 + topics.index(topic)
+        ax = axes[1][col]
+        used.add((1, col))
         ax.imshow(mapping.map_image(r["grid"], refs), origin="lower", extent=extent,
                   interpolation="nearest")
         f = slam[topic]
         ax.set_title("rbpf-slam: %s\npath RMSE %.3f m, precision %.2f, 3D obstacles %.0f%%"
                      % (topic, f["path_rmse_m"], f["map_precision"],
                         100 * f["obstacles_3d_found"]), fontsize=8)
+    for r, row in enumerate(axes):
+        for c, ax in enumerate(row):
+            if (r, c) not in used:
+                ax.axis("off")  # no map for this scan (e.g. a topic mapped but not fed to SLAM)
     for row in axes:
         for ax in row:
             ax.tick_params(labelsize=6)
