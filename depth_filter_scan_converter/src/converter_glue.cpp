@@ -14,21 +14,12 @@ int readQueueSize(const ros::NodeHandle& private_nh)
   return queue_size;
 }
 
-bool due(ros::WallTime& last, double period)
-{
-  const ros::WallTime now = ros::WallTime::now();
-  if (!last.isZero() && (now - last).toSec() < period)
-    return false;
-  last = now;
-  return true;
-}
-
 bool WarningThrottle::due(const std::string& kind)
 {
   if (kind != last_kind_)
     last_ = ros::WallTime();
   last_kind_ = kind;
-  return depth_filter_scan_converter::due(last_, period_);
+  return laserscan_common::due(last_, period_);
 }
 
 LazySubscription::LazySubscription(std::function<void()> subscribe, std::function<void()> unsubscribe)

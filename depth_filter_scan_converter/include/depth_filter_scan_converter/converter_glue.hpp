@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "laserscan_common/parameter_error.hpp"
+#include "laserscan_common/throttle.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -35,10 +36,7 @@ inline std::string describe(const laserscan_common::ParameterError& e)
 /// The private parameter queue_size (default 10, >= 1): depth of the input's queues.
 int readQueueSize(const ros::NodeHandle& private_nh);
 
-/// True when `period` s have passed since `last` (then `last` becomes now). Per converter:
-/// ROS_WARN_THROTTLE keeps one timer per call site, shared by every converter in a manager, so
-/// one sensor's trouble would hide another's.
-bool due(ros::WallTime& last, double period = 5.0);
+using laserscan_common::due;  // per converter, not per call site as ROS_WARN_THROTTLE
 
 /// Throttles the warnings about one kind of fault: a new kind is reported at once, the same
 /// kind again at most every `period` s.

@@ -15,6 +15,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/throttle.hpp"
 
 namespace laserscan_common
 {
@@ -90,11 +91,8 @@ private:
       std::lock_guard<std::mutex> lock(mutex_);
       if (warned_.size() > 100)
         warned_.clear();  // bounded: a publisher inventing frame names cannot grow it forever
-      ros::WallTime& last = warned_[pair];
-      const ros::WallTime now = ros::WallTime::now();
-      if (!last.isZero() && (now - last).toSec() < kWarningPeriod)
+      if (!due(warned_[pair], kWarningPeriod))
         return;
-      last = now;
     }
     ROS_WARN("%s: transform %s from %s on %s with stamp %s ignored: %s", name_.c_str(), pair.c_str(), authority.c_str(),
              is_static ? "/tf_static" : "/tf", stampText(t.header.stamp.sec, t.header.stamp.nsec).c_str(), why.c_str());
