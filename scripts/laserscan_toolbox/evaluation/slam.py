@@ -190,8 +190,8 @@ def read_map_path(most_likely, times, path):
     ``log_times.txt``'s 4th column marks them, and ``path`` (the per-step path) gives their
     stamps."""
     most_likely = np.asarray(most_likely, float).reshape(-1, 3)
-    updated = np.asarray(times, float)[:, 3] == 1
-    steps = np.asarray(times, float)[updated, 0].astype(int)
+    times = np.asarray(times, float)
+    steps = times[times[:, 3] == 1, 0].astype(int)
     if len(most_likely) != len(steps) + 1:
         raise SlamError("rbpf-slam: %d poses in most_likely_path.txt for %d map updates in "
                         "log_times.txt (expected the initial pose and one per update: the "
