@@ -14,14 +14,6 @@ int readQueueSize(const ros::NodeHandle& private_nh)
   return queue_size;
 }
 
-bool WarningThrottle::due(const std::string& kind)
-{
-  if (kind != last_kind_)
-    last_ = ros::WallTime();
-  last_kind_ = kind;
-  return laserscan_common::due(last_, period_);
-}
-
 LazySubscription::LazySubscription(std::function<void()> subscribe, std::function<void()> unsubscribe)
   : subscribe_(std::move(subscribe)), unsubscribe_(std::move(unsubscribe))
 {}

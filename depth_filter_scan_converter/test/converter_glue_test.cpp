@@ -12,27 +12,6 @@
 
 namespace dfsc = depth_filter_scan_converter;
 
-TEST(WarningThrottle, ANewKindAtOnceTheSameKindOncePerPeriod)
-{
-  dfsc::WarningThrottle throttle(60.0);
-  EXPECT_TRUE(throttle.due("empty frame_id"));
-  EXPECT_FALSE(throttle.due("empty frame_id"));
-  EXPECT_TRUE(throttle.due("data size does not match"));  // another kind: said at once
-  EXPECT_TRUE(throttle.due("empty frame_id"));            // and back
-  EXPECT_FALSE(throttle.due("empty frame_id"));
-  dfsc::WarningThrottle unthrottled(0.0);
-  EXPECT_TRUE(unthrottled.due("x"));
-  EXPECT_TRUE(unthrottled.due("x"));
-}
-
-TEST(Due, PerTimerNotPerCallSite)
-{
-  ros::WallTime first, second;
-  EXPECT_TRUE(dfsc::due(first, 60.0));
-  EXPECT_FALSE(dfsc::due(first, 60.0));
-  EXPECT_TRUE(dfsc::due(second, 60.0));  // another converter's timer is its own
-}
-
 TEST(Describe, NamesTheParameterAsTheNodesLogIt)
 {
   const laserscan_common::ParameterError e("min_height", "must be smaller than max_height");

@@ -1,5 +1,5 @@
 // The ROS-free helpers the packages share: ParameterError, the fast atan2, the checks of stamps,
-// frame ids and transforms, and the gate of the /tf reader.
+// frame ids and transforms, the gate of the /tf reader; and the throttle (ROS wall clock only).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,6 +11,7 @@
 #include "laserscan_common/fast_math.hpp"
 #include "laserscan_common/message_checks.hpp"
 #include "laserscan_common/parameter_error.hpp"
+#include "laserscan_common/throttle.hpp"
 
 namespace lc = laserscan_common;
 
@@ -293,6 +294,45 @@ TEST(TransformGate, DynamicTransformsDoNotReplaceStaticOnes)
   broken.transform.translation.x = kInf;
   EXPECT_NE(gate.fault(broken, true, kNow, cache), nullptr);
   EXPECT_EQ(gate.fault(transform("base_link", "camera", kNowSec), false, kNow, cache), nullptr);
+}
+
+TEST(Due, PerTimerNotPerCallSite)
+{
+  ros::WallTime first, second;
+  EXPECT_TRUE(lc::due(first, 60.0));
+  EXPECT_FALSE(lc::due(first, 60.0));
+  EXPECT_TRUE(lc::due(second, 60.0));  // another node's timer is its own
+  EXPECT_TRUE(lc::due(first, 0.0));
+}
+
+TEST(WarningThrottle, EachKindAtOnceThenOncePerPeriod)
+{
+  lc::WarningThrottle throttle(60.0);
+  EXPECT_TRUE(throttle.due("empty frame_id"));
+  EXPECT_FALSE(throttle.due("empty frame_id"));
+  EXPECT_TRUE(throttle.due("ranges length does not match"));  // another kind: said at once
+  // Alternating faults do not flood: back to the first kind, still within its period.
+  EXPECT_FALSE(throttle.due("empty frame_id"));
+  EXPECT_FALSE(throttle.due("ranges length does not match"));
+  EXPECT_TRUE(throttle.due("empty frame_id", 0.0));  // a period of its own for this call
+  // Another instance (another node, another source) has timers of its own.
+  lc::WarningThrottle other(60.0);
+  EXPECT_TRUE(other.due("empty frame_id"));
+  lc::WarningThrottle unthrottled(0.0);
+  EXPECT_TRUE(unthrottled.due("x"));
+  EXPECT_TRUE(unthrottled.due("x"));
+}
+
+TEST(WarningThrottle, BoundedWhenKindsNeverRepeat)
+{
+  lc::WarningThrottle throttle(60.0);
+  EXPECT_TRUE(throttle.due("frame 0"));
+  for (std::size_t i = 1; i < lc::WarningThrottle::kMaxKinds; ++i)
+    EXPECT_TRUE(throttle.due("frame " + std::to_string(i)));
+  EXPECT_FALSE(throttle.due("frame 0"));  // full, but a known kind keeps its timer
+  // One kind more forgets them all (rather than growing forever): each may be said again.
+  EXPECT_TRUE(throttle.due("frame " + std::to_string(lc::WarningThrottle::kMaxKinds)));
+  EXPECT_TRUE(throttle.due("frame 0"));
 }
 
 int main(int argc, char** argv)

@@ -36,21 +36,9 @@ inline std::string describe(const laserscan_common::ParameterError& e)
 /// The private parameter queue_size (default 10, >= 1): depth of the input's queues.
 int readQueueSize(const ros::NodeHandle& private_nh);
 
-using laserscan_common::due;  // per converter, not per call site as ROS_WARN_THROTTLE
-
-/// Throttles the warnings about one kind of fault: a new kind is reported at once, the same
-/// kind again at most every `period` s.
-class WarningThrottle
-{
-public:
-  explicit WarningThrottle(double period = 5.0) : period_(period) {}
-  bool due(const std::string& kind);
-
-private:
-  double period_;
-  std::string last_kind_;
-  ros::WallTime last_;
-};
+// Per converter, not per call site as ROS_WARN_THROTTLE.
+using laserscan_common::due;
+using laserscan_common::WarningThrottle;
 
 /// Subscribes to the input only while someone listens to an output. The mutex is taken before
 /// advertise: the connect callback may fire during it.

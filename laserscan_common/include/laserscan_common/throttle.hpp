@@ -2,6 +2,9 @@
 // by every node in a nodelet manager, so one sensor's trouble would hide another's.
 #pragma once
 
+#include <map>
+#include <string>
+
 #include <ros/time.h>
 
 namespace laserscan_common
@@ -16,5 +19,28 @@ inline bool due(ros::WallTime& last, double period = 5.0)
   last = now;
   return true;
 }
+
+/// A timer per kind of fault (a fault text, a frame pair, ...): a kind is reported at once the
+/// first time, then at most every period; one kind never silences another. Not locked: its owner
+/// calls it under its own lock.
+class WarningThrottle
+{
+public:
+  explicit WarningThrottle(double period = 5.0) : period_(period) {}
+
+  bool due(const std::string& kind) { return due(kind, period_); }
+  bool due(const std::string& kind, double period)
+  {
+    if (last_.size() >= kMaxKinds && last_.count(kind) == 0)
+      last_.clear();  // bounded: a publisher inventing names (frames, ...) cannot grow it forever
+    return laserscan_common::due(last_[kind], period);
+  }
+
+  static constexpr std::size_t kMaxKinds = 100;
+
+private:
+  double period_;
+  std::map<std::string, ros::WallTime> last_;
+};
 
 }  // namespace laserscan_common

@@ -6,7 +6,6 @@
 #pragma once
 
 #include <cstdint>
-#include <map>
 #include <mutex>
 #include <string>
 
@@ -89,9 +88,7 @@ private:
     const std::string pair = "'" + t.header.frame_id + "' -> '" + t.child_frame_id + "'";
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      if (warned_.size() > 100)
-        warned_.clear();  // bounded: a publisher inventing frame names cannot grow it forever
-      if (!due(warned_[pair], kWarningPeriod))
+      if (!warned_.due(pair))
         return;
     }
     ROS_WARN("%s: transform %s from %s on %s with stamp %s ignored: %s", name_.c_str(), pair.c_str(), authority.c_str(),
@@ -102,7 +99,7 @@ private:
   const std::string name_;
   std::mutex mutex_;  // /tf and /tf_static may arrive at once (multi-threaded manager)
   TransformGate gate_;
-  std::map<std::string, ros::WallTime> warned_;  ///< per frame pair
+  WarningThrottle warned_{ kWarningPeriod };  ///< per frame pair
   ros::Subscriber tf_sub_, tf_static_sub_;
 };
 
