@@ -245,15 +245,17 @@ void MultiLaserScanMergerRos::checkTimeJump()
   {
     // In seconds (double): a ros::Duration of a jump of more than 2^31 s would throw.
     clearAll("time jumped backwards by " + std::to_string(last_now_.toSec() - now.toSec()) +
-             " s (bag loop or restarted clock)");
+               " s (bag loop or restarted clock)",
+             "clock jumped backwards");
     tf_buffer_.clear();
   }
   last_now_ = now;
 }
 
-void MultiLaserScanMergerRos::clearAll(const std::string& why)
+void MultiLaserScanMergerRos::clearAll(const std::string& why, const std::string& kind)
 {
-  ROS_WARN_THROTTLE(5.0, "%s: %s: scan and odometry buffers cleared", name_.c_str(), why.c_str());
+  if (warnings_.due(kind))
+    ROS_WARN("%s: %s: scan and odometry buffers cleared", name_.c_str(), why.c_str());
   for (auto& s : sources_)
   {
     s.scan.reset();
@@ -311,8 +313,9 @@ void MultiLaserScanMergerRos::scanCallback(std::size_t i, const sensor_msgs::Las
   {
     ++sources_[i].malformed;
     drop(i, std::string("unexpected error: ") + e.what());
-    ROS_ERROR_THROTTLE(5.0, "%s: source '%s' (%s): scan dropped after an unexpected error (please report): %s",
-                       name_.c_str(), params_.sources[i].name.c_str(), params_.sources[i].topic.c_str(), e.what());
+    if (sources_[i].warnings.due("unexpected error"))
+      ROS_ERROR("%s: source '%s' (%s): scan dropped after an unexpected error (please report): %s", name_.c_str(),
+                params_.sources[i].name.c_str(), params_.sources[i].topic.c_str(), e.what());
   }
 }
 
@@ -336,18 +339,19 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
     const std::string stamp = laserscan_common::stampText(msg->header.stamp.sec, msg->header.stamp.nsec);
     drop(i,
          std::string("malformed scan: ") + fault + " (stamp " + stamp + ", frame_id '" + msg->header.frame_id + "')");
-    ROS_WARN_THROTTLE(5.0,
-                      "%s: source '%s' (%s): malformed scan dropped: %s (stamp %s, clock %.3f, frame_id '%s', %zu "
-                      "ranges, %zu intensities, angles %g..%g step %g)",
-                      name_.c_str(), sp.name.c_str(), sp.topic.c_str(), fault, stamp.c_str(), now.toSec(),
-                      msg->header.frame_id.c_str(), msg->ranges.size(), msg->intensities.size(), msg->angle_min,
-                      msg->angle_max, msg->angle_increment);
+    if (s.warnings.due(fault))  // a fixed text per kind of fault
+      ROS_WARN(
+        "%s: source '%s' (%s): malformed scan dropped: %s (stamp %s, clock %.3f, frame_id '%s', %zu "
+        "ranges, %zu intensities, angles %g..%g step %g)",
+        name_.c_str(), sp.name.c_str(), sp.topic.c_str(), fault, stamp.c_str(), now.toSec(),
+        msg->header.frame_id.c_str(), msg->ranges.size(), msg->intensities.size(), msg->angle_min, msg->angle_max,
+        msg->angle_increment);
     retryPending();
     return;
   }
   const std::string frame = s.frame_id(msg->header.frame_id);
   if (s.scan && view.stamp < s.scan->header.stamp.toSec() - 1.0)
-    clearAll("source '" + sp.name + "' stamps jumped backwards");
+    clearAll("source '" + sp.name + "' stamps jumped backwards", "stamps of source " + sp.name + " jumped backwards");
   std::string error;
   Eigen::Isometry3d output_T_sensor;
   if (tryTransform(frame, msg->header.stamp, output_T_sensor, error))
@@ -367,9 +371,10 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
     {
       ++s.transform_failures;  // replaced before its transform came
       drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "': " + s.pending_error);
-      ROS_WARN_THROTTLE(5.0, "%s: source '%s': no transform '%s' -> '%s' at %.3f, scan dropped: %s", name_.c_str(),
-                        sp.name.c_str(), s.pending_frame.c_str(), params_.output.frame.c_str(),
-                        s.pending->header.stamp.toSec(), s.pending_error.c_str());
+      if (s.warnings.due("no transform before the next scan"))
+        ROS_WARN("%s: source '%s': no transform '%s' -> '%s' at %.3f, scan dropped: %s", name_.c_str(), sp.name.c_str(),
+                 s.pending_frame.c_str(), params_.output.frame.c_str(), s.pending->header.stamp.toSec(),
+                 s.pending_error.c_str());
     }
     s.pending = msg;
     s.pending_frame = frame;
@@ -398,9 +403,10 @@ void MultiLaserScanMergerRos::retryPending()
     {
       ++s.transform_failures;
       drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "' in time: " + error);
-      ROS_WARN_THROTTLE(5.0, "%s: source '%s': no transform '%s' -> '%s' at %.3f within %.1f s, scan dropped: %s",
-                        name_.c_str(), params_.sources[i].name.c_str(), s.pending_frame.c_str(),
-                        params_.output.frame.c_str(), msg->header.stamp.toSec(), kTransformWait, error.c_str());
+      if (s.warnings.due("no transform in time"))
+        ROS_WARN("%s: source '%s': no transform '%s' -> '%s' at %.3f within %.1f s, scan dropped: %s", name_.c_str(),
+                 params_.sources[i].name.c_str(), s.pending_frame.c_str(), params_.output.frame.c_str(),
+                 msg->header.stamp.toSec(), kTransformWait, error.c_str());
       s.pending.reset();
     }
     else
@@ -443,8 +449,8 @@ void MultiLaserScanMergerRos::odomCallback(const nav_msgs::Odometry::ConstPtr& m
   {
     ++odom_rejected_;
     odom_last_rejection_ = std::string("unexpected error: ") + e.what();
-    ROS_ERROR_THROTTLE(5.0, "%s: odometry message dropped after an unexpected error (please report): %s", name_.c_str(),
-                       e.what());
+    if (warnings_.due("odometry: unexpected error"))
+      ROS_ERROR("%s: odometry message dropped after an unexpected error (please report): %s", name_.c_str(), e.what());
   }
 }
 
@@ -460,8 +466,9 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
     ++odom_rejected_;
     const std::string stamp = laserscan_common::stampText(msg->header.stamp.sec, msg->header.stamp.nsec);
     odom_last_rejection_ = std::string(fault) + " (stamp " + stamp + ")";
-    ROS_WARN_THROTTLE(5.0, "%s: odometry (%s) with stamp %s ignored: %s (clock %.3f)", name_.c_str(),
-                      odom_topic_.c_str(), stamp.c_str(), fault, now.toSec());
+    if (warnings_.due(std::string("odometry: ") + fault))
+      ROS_WARN("%s: odometry (%s) with stamp %s ignored: %s (clock %.3f)", name_.c_str(), odom_topic_.c_str(),
+               stamp.c_str(), fault, now.toSec());
     retryPending();
     return;
   }
@@ -472,15 +479,17 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
   {
     ++odom_rejected_;
     odom_last_rejection_ = "non-finite pose or zero quaternion";
-    ROS_WARN_THROTTLE(5.0, "%s: odometry (%s) with a non-finite pose or a zero quaternion ignored (stamp %.3f)",
-                      name_.c_str(), odom_topic_.c_str(), msg->header.stamp.toSec());
+    if (warnings_.due("odometry: not finite"))
+      ROS_WARN("%s: odometry (%s) with a non-finite pose or a zero quaternion ignored (stamp %.3f)", name_.c_str(),
+               odom_topic_.c_str(), msg->header.stamp.toSec());
     retryPending();
     return;
   }
   if (r == OdometryBuffer::AddResult::kClearedBackwards)
   {
-    ROS_WARN_THROTTLE(5.0, "%s: odometry time jumped backwards (to %.3f): odometry buffer cleared", name_.c_str(),
-                      msg->header.stamp.toSec());
+    if (warnings_.due("odometry: jumped backwards"))
+      ROS_WARN("%s: odometry time jumped backwards (to %.3f): odometry buffer cleared", name_.c_str(),
+               msg->header.stamp.toSec());
     for (auto& s : sources_)
       s.scan.reset();  // they belong to the other timeline
     last_published_ = ros::Time();
@@ -516,6 +525,13 @@ void MultiLaserScanMergerRos::timerCallback(const ros::TimerEvent&)
   mergeAndPublish(t_out);
 }
 
+void MultiLaserScanMergerRos::warnNoRobotTransform(const std::string& error)
+{
+  if (warnings_.due("no transform of the odometry child frame"))
+    ROS_WARN("%s: no transform '%s' -> '%s' (odometry child frame): motion compensation skipped: %s", name_.c_str(),
+             odom_child_frame_.c_str(), params_.output.frame.c_str(), error.c_str());
+}
+
 bool MultiLaserScanMergerRos::robotToOutput(Eigen::Isometry3d& out)
 {
   out = Eigen::Isometry3d::Identity();
@@ -524,8 +540,7 @@ bool MultiLaserScanMergerRos::robotToOutput(Eigen::Isometry3d& out)
   std::string error;
   if (!tf_buffer_.canTransform(params_.output.frame, odom_child_frame_, ros::Time(0), &error))
   {
-    ROS_WARN_THROTTLE(5.0, "%s: no transform '%s' -> '%s' (odometry child frame): motion compensation skipped: %s",
-                      name_.c_str(), odom_child_frame_.c_str(), params_.output.frame.c_str(), error.c_str());
+    warnNoRobotTransform(error);
     return false;
   }
   try
@@ -534,8 +549,7 @@ bool MultiLaserScanMergerRos::robotToOutput(Eigen::Isometry3d& out)
   }
   catch (const std::exception& e)
   {
-    ROS_WARN_THROTTLE(5.0, "%s: no transform '%s' -> '%s' (odometry child frame): motion compensation skipped: %s",
-                      name_.c_str(), odom_child_frame_.c_str(), params_.output.frame.c_str(), e.what());
+    warnNoRobotTransform(e.what());
     return false;
   }
   return true;
@@ -559,20 +573,25 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
   if (!params_.odom_topic.empty() && !odom_.empty() && robotToOutput(output_T_robot))
   {
     odom = &odom_;
-    if (t_out - odom_.newestTime() > kOdometryStale)
-      ROS_WARN_THROTTLE(5.0,
-                        "%s: odometry stopped: the newest is %.2f s older than the output time; motion after it "
-                        "is not compensated",
-                        name_.c_str(), t_out - odom_.newestTime());
+    if (t_out - odom_.newestTime() > kOdometryStale && warnings_.due("odometry stopped"))
+      ROS_WARN(
+        "%s: odometry stopped: the newest is %.2f s older than the output time; motion after it is not "
+        "compensated",
+        name_.c_str(), t_out - odom_.newestTime());
   }
   else if (!params_.odom_topic.empty() && odom_.empty() && (odom_received_ == 0 || odom_rejected_ < odom_received_))
-    ROS_WARN_THROTTLE(10.0, "%s: no odometry yet on '%s': merging without motion compensation", name_.c_str(),
-                      odom_topic_.c_str());
+  {
+    if (warnings_.due("no odometry yet", 10.0))
+      ROS_WARN("%s: no odometry yet on '%s': merging without motion compensation", name_.c_str(), odom_topic_.c_str());
+  }
   else if (!params_.odom_topic.empty() && odom_.empty())
-    ROS_WARN_THROTTLE(10.0,
-                      "%s: none of the %zu odometry messages on '%s' was usable (last: %s): merging without "
-                      "motion compensation",
-                      name_.c_str(), odom_received_, odom_topic_.c_str(), odom_last_rejection_.c_str());
+  {
+    if (warnings_.due("no usable odometry", 10.0))
+      ROS_WARN(
+        "%s: none of the %zu odometry messages on '%s' was usable (last: %s): merging without motion "
+        "compensation",
+        name_.c_str(), odom_received_, odom_topic_.c_str(), odom_last_rejection_.c_str());
+  }
   core_->merge(inputs_, t_out, odom, odom != nullptr ? output_T_robot : Eigen::Isometry3d::Identity(), merged_,
                status_);
   for (std::size_t i = 0; i < sources_.size(); ++i)
@@ -586,8 +605,9 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
       ++s.timeouts;
       s.last_timed_out_stamp = stamp;
     }
-    ROS_WARN_THROTTLE(5.0, "%s: source '%s': newest scan is %.2f s old (timeout %.2f s): merged without it",
-                      name_.c_str(), params_.sources[i].name.c_str(), t_out - stamp, params_.sources[i].timeout);
+    if (s.warnings.due("timed out"))
+      ROS_WARN("%s: source '%s': newest scan is %.2f s old (timeout %.2f s): merged without it", name_.c_str(),
+               params_.sources[i].name.c_str(), t_out - stamp, params_.sources[i].timeout);
   }
 
   auto msg = boost::make_shared<sensor_msgs::LaserScan>();

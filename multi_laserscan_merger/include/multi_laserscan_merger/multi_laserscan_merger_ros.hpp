@@ -14,6 +14,7 @@
 #include <tf2_ros/buffer.h>
 
 #include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/throttle.hpp"
 #include "laserscan_common/transform_reader.hpp"
 #include "multi_laserscan_merger/merger_core.hpp"
 
@@ -48,6 +49,9 @@ private:
     ros::WallTime pending_since;
     std::string pending_error;
     laserscan_common::FrameIdNormaliser frame_id;  ///< reports a leading '/' once per source
+    /// Per source and kind of fault: one source's (or merger's) fault never hides another's,
+    /// which ROS_WARN_THROTTLE's one timer per call site in the whole manager would.
+    laserscan_common::WarningThrottle warnings;
     // Diagnostics.
     std::size_t received = 0, received_at_last_report = 0;
     std::size_t timeouts = 0, transform_failures = 0, malformed = 0;
@@ -65,7 +69,8 @@ private:
 
   // All below run with mutex_ held.
   void checkTimeJump();
-  void clearAll(const std::string& why);
+  /// Warns (throttled per `kind` of cause) and clears every buffer.
+  void clearAll(const std::string& why, const std::string& kind);
   /// output_T_sensor at stamp; false (with the reason in error) when tf2 has none or it is not finite.
   bool tryTransform(const std::string& frame, const ros::Time& stamp, Eigen::Isometry3d& output_T_sensor,
                     std::string& error);
@@ -77,6 +82,7 @@ private:
   /// t_out is the stamp of a scan or an odometry message: published bit for bit.
   void mergeAndPublish(const ros::Time& t_out);
   bool robotToOutput(Eigen::Isometry3d& out);
+  void warnNoRobotTransform(const std::string& error);
 
   void sourceDiagnostics(std::size_t source, diagnostic_updater::DiagnosticStatusWrapper& stat);
   void odometryDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
@@ -98,6 +104,7 @@ private:
   std::size_t odom_received_ = 0, odom_rejected_ = 0;
   std::string odom_last_rejection_;
   laserscan_common::FrameIdNormaliser odom_child_frame_id_;  ///< reports a leading '/' once
+  laserscan_common::WarningThrottle warnings_;               ///< per kind, for what is not one source's
 
   std::vector<SourceInput> inputs_;  ///< reused across merges
   std::vector<SourceStatus> status_;
