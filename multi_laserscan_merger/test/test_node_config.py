@@ -546,3 +546,85 @@ def test_a_discarded_older_scan_leaves_the_kept_scans_mount(ros_env):
     # A pending scan superseded by a newer one is counted, with the reason.
     assert words[words.index('transform_failures') + 1] == '1', feed.stdout + out
     assert 'before_a_newer_scan_was_merged' in words[words.index('last_drop') + 1], feed.stdout + out
+
+
+SHARED_MANAGER_FEED = r'''
+import json, sys, time, rospy
+from rosgraph_msgs.msg import Log
+from sensor_msgs.msg import LaserScan
+rospy.init_node('shared_manager_feed')
+warnings = []
+rosout = rospy.Subscriber('/rosout_agg', Log, lambda m: warnings.append(m.msg) if m.level >= Log.WARN else None)
+pubs = {t: rospy.Publisher(t, LaserScan, queue_size=20) for t in ('/sm/front', '/sm/rear', '/sm/b_front')}
+def wait_for(condition, what):
+    deadline = time.time() + 60.0
+    while not condition():
+        if time.time() > deadline:
+            print(json.dumps({'timeout': what, 'warnings': warnings}))
+            sys.exit(0)
+        time.sleep(0.1)
+# Both mergers subscribed (they are loaded by then) and /rosout_agg connected.
+wait_for(lambda: rosout.get_num_connections() > 0 and all(p.get_num_connections() > 0 for p in pubs.values()),
+         'connections')
+def scan(topic, frame_id='base_link', beams=2):
+    s = LaserScan()
+    s.header.stamp, s.header.frame_id = rospy.Time.now(), frame_id
+    s.angle_min, s.angle_max, s.angle_increment = 0.0, 1.0, 0.1
+    s.range_max, s.ranges = 10.0, [1.0] * beams  # 11 beams by the angles: 2 is the same fault everywhere
+    pubs[topic].publish(s)
+burst = int(sys.argv[1])
+for _ in range(burst):  # one source, one fault, again and again
+    scan('/sm/front')
+scan('/sm/front', frame_id='', beams=11)  # the same source, another fault
+scan('/sm/rear')                # the same merger, another source, the same fault
+scan('/sm/b_front')             # another merger in the manager, a source of the same name
+expected = json.loads(sys.argv[2])
+wait_for(lambda: all(any(all(part in w for part in e) for w in warnings) for e in expected), 'warnings')
+time.sleep(1.0)  # whatever else the burst gave
+print(json.dumps({'warnings': warnings}))
+'''
+
+
+def test_one_sources_warning_hides_no_other_sources_or_mergers_in_a_manager(ros_env):
+    # ROS_WARN_THROTTLE keeps one timer per call site for the whole process: with two mergers
+    # in one manager, the first malformed scan silenced every other source's and merger's for 5 s.
+    sources = {'merger_sa': '[{name: front, topic: sm/front}, {name: rear, topic: sm/rear}]',
+               'merger_sb': '[{name: front, topic: sm/b_front}]'}
+    manager = subprocess.Popen(['rosrun', 'nodelet', 'nodelet', 'manager', '__name:=shared_manager'], env=ros_env,
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    loaders = []
+    try:
+        for name, source_list in sources.items():
+            set_params(ros_env, name, 'odom_topic: ""\nsources: %s' % source_list)
+            loaders.append(subprocess.Popen(
+                ['rosrun', 'nodelet', 'nodelet', 'load', 'multi_laserscan_merger/MultiLaserScanMergerNodelet',
+                 '/shared_manager', '__name:=' + name, 'merged_scan:=/%s/merged_scan' % name],
+                env=ros_env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        burst = 5
+        ranges_fault = 'malformed scan dropped: ranges length does not match'
+        expected = [["/merger_sa: source 'front'", ranges_fault],
+                    ["/merger_sa: source 'front'", 'malformed scan dropped: empty frame_id'],
+                    ["/merger_sa: source 'rear'", ranges_fault],
+                    ["/merger_sb: source 'front'", ranges_fault]]
+        feed = subprocess.run(['/usr/bin/python3', '-c', SHARED_MANAGER_FEED, str(burst), json.dumps(expected)],
+                              env=ros_env, capture_output=True, text=True, timeout=180)
+        alive = manager.poll() is None
+    finally:
+        for p in loaders + [manager]:
+            p.send_signal(signal.SIGINT)
+        for p in loaders + [manager]:
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+    out = manager.communicate()[0]
+    assert feed.returncode == 0, feed.stdout + feed.stderr
+    result = json.loads(feed.stdout.strip().splitlines()[-1])
+    assert 'timeout' not in result, (result, out)
+    assert alive, out
+    warnings = result['warnings']
+    for parts in expected:  # each reported at once, none hidden by another's throttle
+        assert any(all(p in w for p in parts) for w in warnings), (parts, warnings)
+    # Still throttled per source and fault: the burst is not one warning per scan.
+    front = [w for w in warnings if "/merger_sa: source 'front'" in w and ranges_fault in w]
+    assert 1 <= len(front) < burst, warnings
