@@ -22,7 +22,7 @@ import psutil
 NANOSECONDS = "CPU-time clock, ns"
 CLOCK_TICKS = "/proc/<pid>/stat, 10 ms ticks"
 
-_LIBC = ctypes.CDLL(None, use_errno=True)
+_LIBC = ctypes.CDLL(None)
 
 
 def _clock_cpu_s(pid):
@@ -45,8 +45,8 @@ def _probe_source():
         _clock_cpu_s(os.getpid())
         return NANOSECONDS
     except (AttributeError, OSError):
-        warnings.warn("no CPU-time clock of other processes here: CPU is read from "
-                      "/proc/<pid>/stat in 10 ms ticks", RuntimeWarning)
+        warnings.warn("no process CPU-time clock here: CPU is read from /proc/<pid>/stat in "
+                      "10 ms ticks", RuntimeWarning)
         return CLOCK_TICKS
 
 
