@@ -8,9 +8,9 @@ cloud), shows what its glue (tf filter, tf, scan, diagnostics, threads) costs in
 
 Each run starts one standalone node (shipped parameters, the same YAML for all) on its own
 roscore, then measure_node_cost.py's feeder publishes N organized 320 x 163 clouds (52,160
-points of 16 bytes) at 10 Hz over TCP; the node's CPU (sum over its threads of
-/proc/<pid>/task/*/schedstat, in ns) from the first cloud until a second after the last is
-divided by the clouds sent. The nodes take turns, `--repeat` rounds; the medians are reported.
+points of 16 bytes) at 10 Hz over TCP; the node's CPU (all its threads, in ns: the toolbox's
+ros/cpu_accounting.py) from the first cloud until a second after the last is divided by the
+clouds sent. The nodes take turns, `--repeat` rounds; the medians are reported.
 
 pointcloud_to_laserscan is not packaged in Debian 12 and is not built here: the per-point node
 is a faithful stand-in for its per-cloud work (tf filter, the whole cloud transformed with
@@ -31,7 +31,7 @@ import tempfile
 HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(os.path.dirname(PKG), "scripts"))
-from laserscan_toolbox.experiments.camera_path import cpu_seconds_between, thread_cpu_ns  # noqa: E402
+from laserscan_toolbox.ros.cpu_accounting import process_cpu_s  # noqa: E402
 from measure_node_cost import FEED, node_binary, start_master  # noqa: E402
 
 # name -> (executable, extra private parameters)
@@ -62,10 +62,10 @@ def run_once(kind, clouds, tmp):
                                 text=True)
         if feed.stdout.readline().strip() != "ready":
             raise RuntimeError("the feeder did not connect to the %s node" % kind)
-        before = thread_cpu_ns(node.pid)
+        before = process_cpu_s(node.pid)
         open(flag, "w").close()
         scans = int(feed.stdout.readline().split()[1])
-        cpu = cpu_seconds_between(before, thread_cpu_ns(node.pid))
+        cpu = process_cpu_s(node.pid) - before
         os.remove(flag)
         return cpu, scans
     finally:

@@ -21,6 +21,9 @@ import tempfile
 import time
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(PKG), "scripts"))
+from laserscan_toolbox.ros.cpu_accounting import snapshot, spent, tree_processes  # noqa: E402
+
 # name, frame, x, y, z, yaw, beams, angle_min, increment, rate
 SOURCES = [
     ('lidar_front_left', 'lidar_fl', 0.37, 0.24, 0.2, math.pi / 4, 360, -math.pi, 2 * math.pi / 360, 8.0),
@@ -99,7 +102,6 @@ def read_count(path):
 
 
 def measure(env, mode, seconds, tmp):
-    import psutil
     subprocess.run(['rosparam', 'load', os.path.join(PKG, 'config', 'paper_robot.yaml'), '/merger'], env=env, check=True)
     procs = []
     if mode == 'nodelet':
@@ -120,12 +122,10 @@ def measure(env, mode, seconds, tmp):
     feed = subprocess.Popen([sys.executable, os.path.abspath(__file__), '--publish', count_file], env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     time.sleep(4.0)  # connections and warm-up
-    proc = psutil.Process(target.pid)
-    # rosrun may exec or fork: take the process and its children.
-    members = [proc] + proc.children(recursive=True)
 
     def cpu():
-        return sum(p.cpu_times().user + p.cpu_times().system for p in members)
+        # rosrun may exec or fork: take the process and its children.
+        return snapshot(tree_processes(target.pid, include_root=True))
     c0, n0, t0 = cpu(), read_count(count_file), time.time()
     time.sleep(seconds)
     c1, n1, t1 = cpu(), read_count(count_file), time.time()
@@ -137,7 +137,7 @@ def measure(env, mode, seconds, tmp):
         except subprocess.TimeoutExpired:
             p.kill()
     outputs = n1 - n0
-    return (c1 - c0), outputs, (t1 - t0)
+    return spent(c0, c1)["total_s"], outputs, (t1 - t0)
 
 
 def main():

@@ -16,6 +16,7 @@ import time
 
 import numpy as np
 
+from ..ros.cpu_accounting import process_cpu_s
 from ..ros.rosrun import (REPO, BagPlayer, CpuMeter, Launch, RunError, log_tail, own_node_name,
                           wait_connected)
 
@@ -167,7 +168,7 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
         procs = launch.processes()
         cpu = CpuMeter(procs)
         player = BagPlayer(bag_info["path"], os.path.join(wd, label + "_play.log"), rate=rate)
-        own0 = sum(os.times()[:2])  # this process is the consumer of what it records
+        own0 = process_cpu_s(os.getpid())  # this process is the consumer of what it records
         cpu.start()
         player.start()
         bag_topics = set(bag_info["topics"])
@@ -191,7 +192,7 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
         _wait_playback(player, bag_info, progress, label, late_outputs)
         time.sleep(tail)  # outputs of the last inputs are still on their way
         cpu_res, wall = cpu.stop()
-        own_cpu = sum(os.times()[:2]) - own0
+        own_cpu = process_cpu_s(os.getpid()) - own0
         # CPU per second of data: the window also holds rosbag's start delay and the tail,
         # during which the pipeline idles; short bags would otherwise look cheaper.
         data_s = max((bag_info["end"] - bag_info["start"]) / rate, 1e-9)

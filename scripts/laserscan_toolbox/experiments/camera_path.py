@@ -38,6 +38,7 @@ import numpy as np
 import yaml
 
 from ..evaluation.report import fmt, table
+from ..ros.cpu_accounting import process_cpu_s
 from ..ros.rosrun import REPO, Master, RunError, stop_process
 
 PATHS = ("baseline", "image", "cloud")
@@ -131,26 +132,6 @@ class _Frames:
         self.info_pub.unregister()
 
 
-def thread_cpu_ns(pid):
-    """{thread id: CPU ns} of a process's threads, from /proc/<pid>/task/*/schedstat: exact to the
-    nanosecond, where /proc/<pid>/stat counts in 10 ms ticks (too coarse for a few hundred ms of CPU
-    per run)."""
-    out = {}
-    for tid in os.listdir("/proc/%d/task" % pid):
-        try:
-            with open("/proc/%d/task/%s/schedstat" % (pid, tid)) as f:
-                out[tid] = int(f.read().split()[0])
-        except (OSError, ValueError, IndexError):
-            continue  # the thread ended meanwhile
-    return out
-
-
-def cpu_seconds_between(before, after):
-    """CPU seconds the threads spent between two thread_cpu_ns() snapshots (a thread started in
-    between counts whole; one that ended in between is lost, none does in a running manager)."""
-    return sum(ns - before.get(tid, 0) for tid, ns in after.items()) / 1e9
-
-
 def _start(cmd, log):
     with open(log, "w") as f:
         return subprocess.Popen(cmd, stdout=f, stderr=subprocess.STDOUT, start_new_session=True)
@@ -226,9 +207,9 @@ def measure(path, pub, frames, rate, workdir, label, source="tcp", config=CONFIG
                     raise RunError("%s path: no scan came back (see %s)" % (path, workdir))
                 time.sleep(0.05)
             time.sleep(0.5)
-            before, scans0, frames0 = thread_cpu_ns(manager.pid), pub.scans, pub.frames_out
+            before, scans0, frames0 = process_cpu_s(manager.pid), pub.scans, pub.frames_out
             time.sleep(frames / rate)
-            cpu = cpu_seconds_between(before, thread_cpu_ns(manager.pid))
+            cpu = process_cpu_s(manager.pid) - before
             # Counted as they arrive here, at both ends of the window: the same delay at both.
             published, scans = pub.frames_out - frames0, pub.scans - scans0
             per = published
@@ -237,14 +218,14 @@ def measure(path, pub, frames, rate, workdir, label, source="tcp", config=CONFIG
             k = _feed_until(pub, lambda: pub.scans - scans0 >= 3, rate, "%s path: no scan came back" % path, manager,
                             workdir)
             time.sleep(0.5)
-            before, scans0 = thread_cpu_ns(manager.pid), pub.scans
+            before, scans0 = process_cpu_s(manager.pid), pub.scans
             for i in range(frames):
                 pub.publish(k + i)
                 time.sleep(1.0 / rate)
             deadline = time.time() + 5.0
             while pub.scans - scans0 < frames and time.time() < deadline:
                 time.sleep(0.05)
-            cpu = cpu_seconds_between(before, thread_cpu_ns(manager.pid))
+            cpu = process_cpu_s(manager.pid) - before
             published, scans = frames, pub.scans - scans0
             per = scans
         return {"path": path, "frames": published, "scans": scans, "cpu_s": cpu,

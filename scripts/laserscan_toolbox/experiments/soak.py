@@ -17,6 +17,7 @@ import sys
 import time
 
 from ..evaluation.report import fmt, table, write_json
+from ..ros.cpu_accounting import tree_processes
 from ..ros.rosrun import (REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name,
                           wait_connected)
 
@@ -184,7 +185,7 @@ def _rss_sample(procs):
 def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, camera_points=10000, seed=0,
         stall_s=1.0, launch_file=DEFAULT_LAUNCH, log=print):
     from .cpu import simulate
-    from .transport import _proc_name, tree_processes
+    from .transport import _proc_name
     os.makedirs(outdir, exist_ok=True)
     load0 = os.getloadavg()
     with Session() as session:

@@ -3,11 +3,11 @@
 One short scenario bag is simulated once and played through launch/pipeline.launch in both
 modes (same launch arguments except ``standalone``), alternating the modes ``repeat`` times
 to spread background load evenly. For every run this process subscribes to the merged
-outputs (so the whole path is active) and measures, with psutil, the CPU time (user + sys)
-of every process roslaunch started (the manager, or every standalone node), over the
-playback window only. Reported per mode (medians over the repeats): CPU per merged output
-in ms, CPU in % of one core (per second of window), outputs counted, and the ratio
-standalone / manager.
+outputs (so the whole path is active) and measures the CPU time (user + sys, in ns:
+ros.cpu_accounting) of every process roslaunch started (the manager, or every standalone
+node), over the playback window only. Reported per mode (medians over the repeats): CPU per
+merged output in ms, CPU in % of one core (per second of window), outputs counted, and the
+ratio standalone / manager.
 """
 
 import os
@@ -16,6 +16,7 @@ import sys
 import time
 
 from ..evaluation.report import fmt, table, write_json
+from ..ros.cpu_accounting import snapshot, spent, tree_processes
 from ..ros.rosrun import (REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name,
                           wait_connected)
 
@@ -25,34 +26,7 @@ LOADER_TAG = " (loader)"
 DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
 
 
-# ---------------------------------------------------------------- process-tree CPU (pure)
-
-def tree_processes(root_pid, include_root=False):
-    """psutil.Process of every live descendant of root_pid (and root itself if asked)."""
-    import psutil
-    try:
-        root = psutil.Process(root_pid)
-        procs = root.children(recursive=True)
-    except psutil.Error:
-        return []
-    return ([root] if include_root else []) + procs
-
-
-def cpu_snapshot(procs):
-    """{(pid, create_time): (name, user+sys seconds)} of the processes still alive.
-    Keyed with create_time so a recycled pid is never taken for the same process."""
-    import psutil
-    snap = {}
-    for p in procs:
-        try:
-            with p.oneshot():
-                t = p.cpu_times()
-                key = (p.pid, p.create_time())
-                snap[key] = (_proc_name(p), t.user + t.system)
-        except psutil.Error:
-            continue  # exited meanwhile (e.g. check_config): nothing to account
-    return snap
-
+# ---------------------------------------------------------------- process names (pure)
 
 def _proc_name(p):
     try:
@@ -74,20 +48,9 @@ def _proc_name(p):
     return name
 
 
-def cpu_delta(before, after):
-    """CPU seconds spent between two snapshots, per process and in total.
-
-    A process present only in ``after`` started inside the window: all its CPU counts.
-    A process present only in ``before`` exited inside the window: its last CPU is unknown,
-    so it is listed in ``lost`` (the total is then a lower bound)."""
-    per = {}
-    for key, (name, c1) in after.items():
-        c0 = before[key][1] if key in before else 0.0
-        per["%s[%d]" % (name, key[0])] = max(c1 - c0, 0.0)
-    lost = ["%s[%d]" % (before[k][0], k[0]) for k in before if k not in after]
-    loaders = sum(v for k, v in per.items() if k.rsplit("[", 1)[0].endswith(LOADER_TAG))
-    return {"per_process": per, "total_s": sum(per.values()), "loader_s": loaders,
-            "lost": lost}
+def loader_cpu_s(per_process):
+    """CPU seconds of the nodelet loader clients among ``spent()``'s per_process figures."""
+    return sum(v for k, v in per_process.items() if k.rsplit("[", 1)[0].endswith(LOADER_TAG))
 
 
 # ---------------------------------------------------------------- results (pure)
@@ -160,7 +123,7 @@ def measure(session, bag, mode, launch_file, launch_args, label, tail=0.5):
             raise RunError("%s: could not connect to %s" % (mode, ", ".join(OUTPUT_TOPICS)))
         procs = tree_processes(launch.proc.pid)
         player = BagPlayer(bag, os.path.join(wd, label + "_play.log"))
-        before = cpu_snapshot(procs)
+        before = snapshot(procs, _proc_name)
         t0 = time.time()
         n0 = dict(rec.count)
         player.start()
@@ -168,7 +131,7 @@ def measure(session, bag, mode, launch_file, launch_args, label, tail=0.5):
             time.sleep(0.1)
         time.sleep(tail)  # the last inputs' outputs are still on their way
         # re-list the tree: a node respawned during the window would be counted from 0
-        after = cpu_snapshot(tree_processes(launch.proc.pid))
+        after = snapshot(tree_processes(launch.proc.pid), _proc_name)
         window = time.time() - t0
         counts = {t: rec.count[t] - n0[t] for t in OUTPUT_TOPICS}
         if player.proc.returncode != 0:
@@ -177,13 +140,15 @@ def measure(session, bag, mode, launch_file, launch_args, label, tail=0.5):
         if launch.proc.poll() is not None:
             raise RunError("%s: the pipeline stopped during playback:\n%s"
                            % (mode, log_tail(launch.log_path)))
-        d = cpu_delta(before, after)
+        d = spent(before, after)
         if counts["/merged_scan"] == 0:
             raise RunError("%s: no /merged_scan during playback:\n%s"
                            % (mode, log_tail(launch.log_path)))
-        fig = run_figures(d["total_s"], window, counts["/merged_scan"], d["loader_s"])
+        fig = run_figures(d["total_s"], window, counts["/merged_scan"],
+                          loader_cpu_s(d["per_process"]))
         fig.update({"mode": mode, "processes": len(d["per_process"]), "counts": counts,
-                    "per_process_cpu_s": d["per_process"], "lost": d["lost"]})
+                    "per_process_cpu_s": d["per_process"], "lost": d["lost"],
+                    "cpu_source": d["source"]})
         return fig
     finally:
         if rec is not None:

@@ -16,6 +16,8 @@ import tempfile
 import threading
 import time
 
+from . import cpu_accounting
+
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 
 
@@ -202,11 +204,7 @@ class Launch:
         """(name, psutil.Process) of every process the launch started."""
         import psutil
         out = []
-        try:
-            children = psutil.Process(self.proc.pid).children(recursive=True)
-        except psutil.Error:
-            return out
-        for p in children:
+        for p in cpu_accounting.tree_processes(self.proc.pid):
             try:
                 cmd = p.cmdline()
             except psutil.Error:
@@ -228,36 +226,35 @@ class CpuMeter:
     """CPU time of processes between start() and stop(), as percent of one core."""
 
     def __init__(self, named_procs):
-        self.procs = named_procs
+        self.procs = [p for _, p in named_procs]
+        self.names = {p.pid: name for name, p in named_procs}
         self.t0 = None
-        self.c0 = {}
+        self.before = {}
 
-    @staticmethod
-    def _cpu(p):
-        t = p.cpu_times()
-        return t.user + t.system
+    def _snapshot(self):
+        return cpu_accounting.snapshot(self.procs, lambda p: self.names[p.pid])
 
     def start(self):
-        import psutil
         self.t0 = time.time()
-        for name, p in self.procs:
-            try:
-                self.c0[name] = (p, self._cpu(p))
-            except psutil.Error:
-                pass
+        self.before = self._snapshot()
 
     def stop(self):
         import psutil
         wall = time.time() - self.t0
+        after = self._snapshot()
+        per_process = cpu_accounting.spent(self.before, after)["per_process"]
         res = {}
-        for name, (p, c0) in self.c0.items():
+        for p in self.procs:
+            name = self.names[p.pid]
+            cpu_s = per_process.get(cpu_accounting.label(name, p.pid))
+            if cpu_s is None:
+                continue  # ended before stop()
             try:
-                c1 = self._cpu(p)
                 rss = p.memory_info().rss
             except psutil.Error:
                 continue
-            res[name] = {"cpu_percent": 100.0 * (c1 - c0) / wall if wall > 0 else float("nan"),
-                         "cpu_seconds": c1 - c0, "rss_mb": rss / 1e6}
+            res[name] = {"cpu_percent": 100.0 * cpu_s / wall if wall > 0 else float("nan"),
+                         "cpu_seconds": cpu_s, "rss_mb": rss / 1e6}
         return res, wall
 
 
