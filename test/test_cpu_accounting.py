@@ -110,6 +110,23 @@ def test_threads_count_also_one_that_ended():
     assert 0.3 <= spent < 0.3 + SLACK_S
 
 
+def test_one_threads_cpu_apart_from_the_others():
+    def burn(seconds):
+        start = time.thread_time()
+        while time.thread_time() - start < seconds:
+            pass
+    tid = threading.get_native_id()
+    before = ca.thread_cpu_s(os.getpid(), tid)
+    worker = threading.Thread(target=burn, args=(0.2,))
+    worker.start()
+    worker.join()  # the other thread's CPU is not this one's
+    burn(0.1)
+    spent = ca.thread_cpu_s(os.getpid(), tid) - before
+    assert 0.1 <= spent < 0.1 + SLACK_S
+    with pytest.raises(psutil.NoSuchProcess):
+        ca.thread_cpu_s(os.getpid(), worker.native_id)  # it has ended
+
+
 def test_tick_fallback_reads_the_same_time(spinner, monkeypatch):
     spinner.spin(BUSY_S)  # the child now waits: its CPU time stands still
     ns = ca.process_cpu_s(spinner.proc.pid)

@@ -62,6 +62,16 @@ def process_cpu_s(pid):
     return t.user + t.system
 
 
+def thread_cpu_s(pid, tid):
+    """CPU seconds thread ``tid`` of process ``pid`` has spent (the scheduler's ns count in
+    /proc/<pid>/task/<tid>/schedstat). Raises psutil.NoSuchProcess when it has ended."""
+    try:
+        with open("/proc/%d/task/%d/schedstat" % (pid, tid)) as f:
+            return int(f.read().split()[0]) / 1e9
+    except FileNotFoundError:
+        raise psutil.NoSuchProcess(tid) from None
+
+
 def tree_processes(root_pid, include_root=False):
     """psutil.Process of every live descendant of root_pid (children, grandchildren, ...) and of
     root itself if asked; [] when root has ended."""
