@@ -97,7 +97,6 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
       [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
         transformFailed(cloud, reason);
       });
-    cloud_sub_.registerCallback([this](const Cloud::ConstPtr& cloud) { arrived(cloud, nullptr, *cloud_filter_); });
   }
   else
   {
@@ -109,7 +108,7 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
         transformFailed(image, reason);
       });
     image_sync_ = std::make_unique<ImageSync>(message_filters::sync_policies::ExactTime<Image, CameraInfo>(queue),
-                                              image_sub_, info_sub_);
+                                              image_in_, info_sub_);
     // boost::bind: the synchronizer's signals pass nine arguments, the unused ones NullType.
     using boost::placeholders::_1;
     using boost::placeholders::_2;
@@ -138,19 +137,20 @@ void DepthFilterScanConverter::subscribeInput()
   const auto queue = static_cast<std::uint32_t>(queue_size_);
   if (input_ == DepthInput::Cloud)
   {
-    cloud_sub_.subscribe(nh_, "cloud_in", queue);
+    input_sub_ = subscribeCopyingOnce<Cloud>(nh_, "cloud_in", queue,
+                                             [this](const Cloud::ConstPtr& cloud) { arrived(cloud, nullptr, *cloud_filter_); });
   }
   else
   {
-    image_sub_.subscribe(nh_, "image", queue);
+    input_sub_ = subscribeCopyingOnce<Image>(nh_, "image", queue,
+                                             [this](const Image::ConstPtr& image) { image_in_.add(image); });
     info_sub_.subscribe(nh_, "camera_info", queue);
   }
 }
 
 void DepthFilterScanConverter::unsubscribeInput()
 {
-  cloud_sub_.unsubscribe();
-  image_sub_.unsubscribe();
+  input_sub_.shutdown();
   info_sub_.unsubscribe();
 }
 
@@ -210,16 +210,17 @@ void DepthFilterScanConverter::imageDropped(const Image::ConstPtr& image, const 
 
 std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& header)
 {
-  const std::string stamp = laserscan_common::stampText(header.stamp.sec, header.stamp.nsec);
+  // The stamp as text only for a message that is dropped: formatting it costs more than the checks.
+  const auto stamp = [&header] { return laserscan_common::stampText(header.stamp.sec, header.stamp.nsec); };
   if (header.frame_id.empty())
-    return "empty frame_id (stamp " + stamp + ")";
+    return "empty frame_id (stamp " + stamp() + ")";
   // Only looked up: any stamp that leaves tf2 and roscpp room for what they add to it.
   const laserscan_common::StampLimits limits{
     laserscan_common::kMaxStampAheadNs, params_.transform.tf_buffer_duration + params_.transform.transform_tolerance
   };
   if (const char* fault = laserscan_common::stampFault(header.stamp.sec, header.stamp.nsec, 0,
                                                        laserscan_common::StampUse::kLookup, limits))
-    return std::string(fault) + " (stamp " + stamp + ")";
+    return std::string(fault) + " (stamp " + stamp() + ")";
   frame_id_(header.frame_id);
   return {};
 }

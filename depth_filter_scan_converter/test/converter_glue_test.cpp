@@ -5,10 +5,14 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 
+#include <ros/serialization.h>
+
 #include <string>
+#include <vector>
 
 #include "depth_filter_scan_converter/cloud_view.hpp"
 #include "depth_filter_scan_converter/converter_glue.hpp"
+#include "depth_filter_scan_converter/copy_once_subscription.hpp"
 
 namespace dfsc = depth_filter_scan_converter;
 
@@ -67,6 +71,113 @@ TEST(CloudLayoutOf, SameLayoutFromAPointCloud2AndFromPcl)
     EXPECT_EQ(from_pcl.fields[i].datatype, layout.fields[i].datatype);
     EXPECT_EQ(from_pcl.fields[i].count, layout.fields[i].count);
   }
+}
+
+namespace
+{
+template <class M>
+std::vector<std::uint8_t> wireBytes(const M& message)
+{
+  std::vector<std::uint8_t> bytes(ros::serialization::serializationLength(message));
+  ros::serialization::OStream stream(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
+  ros::serialization::serialize(stream, message);
+  return bytes;
+}
+
+// Reads `bytes` with the copy-once reader (after a message already holding other data: each
+// field must be replaced) and with roscpp's, and expects both to give the same wire bytes back.
+template <class M>
+void expectSameAsRoscpp(const std::vector<std::uint8_t>& bytes, M stale)
+{
+  ros::serialization::IStream ours(const_cast<std::uint8_t*>(bytes.data()), static_cast<std::uint32_t>(bytes.size()));
+  dfsc::wire::read(ours, stale);
+  EXPECT_EQ(ours.getLength(), 0u);  // every byte read
+  M roscpps;
+  ros::serialization::IStream theirs(const_cast<std::uint8_t*>(bytes.data()),
+                                     static_cast<std::uint32_t>(bytes.size()));
+  ros::serialization::deserialize(theirs, roscpps);
+  EXPECT_EQ(wireBytes(stale), bytes);
+  EXPECT_EQ(wireBytes(roscpps), bytes);
+}
+
+sensor_msgs::PointCloud2 someCloud()
+{
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header.seq = 7;
+  cloud.header.stamp = ros::Time(1234, 5678);
+  cloud.header.frame_id = "camera_depth_optical_frame";
+  cloud.height = 3;
+  cloud.width = 5;
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2FieldsByString(1, "xyz");
+  for (std::size_t i = 0; i < cloud.data.size(); ++i)
+    cloud.data[i] = static_cast<std::uint8_t>(i * 37 + 11);
+  cloud.is_bigendian = false;
+  cloud.is_dense = true;
+  return cloud;
+}
+}  // namespace
+
+TEST(CopyOnceReader, ReadsPointCloud2AsRoscppDoes)
+{
+  const sensor_msgs::PointCloud2 cloud = someCloud();
+  sensor_msgs::PointCloud2 stale = someCloud();
+  stale.header.frame_id = "old";
+  stale.data.assign(1000, 0xAB);  // longer than the new data: must be replaced, not kept
+  stale.fields.clear();
+  stale.is_dense = false;
+  expectSameAsRoscpp(wireBytes(cloud), stale);
+  expectSameAsRoscpp(wireBytes(sensor_msgs::PointCloud2()), stale);  // empty cloud
+}
+
+TEST(CopyOnceReader, ReadsImageAsRoscppDoes)
+{
+  sensor_msgs::Image image;
+  image.header.stamp = ros::Time(99, 1);
+  image.header.frame_id = "camera";
+  image.height = 4;
+  image.width = 6;
+  image.encoding = "16UC1";
+  image.is_bigendian = 0;
+  image.step = 12;
+  for (int i = 0; i < 48; ++i)
+    image.data.push_back(static_cast<std::uint8_t>(255 - i));
+  sensor_msgs::Image stale;
+  stale.encoding = "32FC1";
+  stale.data.assign(3, 1);
+  expectSameAsRoscpp(wireBytes(image), stale);
+}
+
+TEST(CopyOnceReader, ShortBuffersThrowAsRoscppsReaderDoes)
+{
+  const std::vector<std::uint8_t> bytes = wireBytes(someCloud());
+  // Cut inside the data, and inside the length of data: both readers must refuse.
+  for (std::size_t cut : { bytes.size() - 1, bytes.size() - 20, std::size_t{ 30 } })
+  {
+    std::vector<std::uint8_t> part(bytes.begin(), bytes.begin() + cut);
+    sensor_msgs::PointCloud2 ours, roscpps;
+    ros::serialization::IStream a(part.data(), static_cast<std::uint32_t>(part.size()));
+    EXPECT_THROW(dfsc::wire::read(a, ours), ros::serialization::StreamOverrunException) << cut;
+    ros::serialization::IStream b(part.data(), static_cast<std::uint32_t>(part.size()));
+    EXPECT_THROW(ros::serialization::deserialize(b, roscpps), ros::serialization::StreamOverrunException) << cut;
+  }
+  // A data length far beyond the buffer (a corrupt length) is refused before anything is copied.
+  std::vector<std::uint8_t> corrupt = bytes;
+  const std::size_t data_length_at = bytes.size() - 1 - someCloud().data.size() - 4;
+  corrupt[data_length_at + 3] = 0x7f;
+  sensor_msgs::PointCloud2 ours;
+  ros::serialization::IStream c(corrupt.data(), static_cast<std::uint32_t>(corrupt.size()));
+  EXPECT_THROW(dfsc::wire::read(c, ours), ros::serialization::StreamOverrunException);
+}
+
+TEST(CopyOnceReader, SubscribersTypeIsTheMessagesOwnForZeroCopyInAManager)
+{
+  // roscpp hands a publisher's shared pointer to a subscriber in the same process only when the
+  // helper's type is the published type.
+  dfsc::CopyOnceCallbackHelper<sensor_msgs::PointCloud2> cloud_helper([](const sensor_msgs::PointCloud2ConstPtr&) {});
+  dfsc::CopyOnceCallbackHelper<sensor_msgs::Image> image_helper([](const sensor_msgs::ImageConstPtr&) {});
+  EXPECT_TRUE(cloud_helper.getTypeInfo() == typeid(sensor_msgs::PointCloud2));
+  EXPECT_TRUE(image_helper.getTypeInfo() == typeid(sensor_msgs::Image));
 }
 
 int main(int argc, char** argv)

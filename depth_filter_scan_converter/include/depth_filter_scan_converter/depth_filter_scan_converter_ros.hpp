@@ -4,6 +4,7 @@
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
+#include <message_filters/pass_through.h>
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/exact_time.h>
 #include <message_filters/synchronizer.h>
@@ -25,6 +26,7 @@
 #include "depth_filter_scan_converter/DepthFilterScanConverterConfig.h"
 #include "depth_filter_scan_converter/cloud_view.hpp"
 #include "depth_filter_scan_converter/converter_glue.hpp"
+#include "depth_filter_scan_converter/copy_once_subscription.hpp"
 #include "depth_filter_scan_converter/depth_image_view.hpp"
 #include "depth_filter_scan_converter/parameters.hpp"
 #include "depth_filter_scan_converter/projector.hpp"
@@ -112,11 +114,11 @@ private:
 
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<laserscan_common::TransformReader> tf_reader_;  // feeds tf_buffer_ from /tf and /tf_static
-  message_filters::Subscriber<Cloud> cloud_sub_;
+  ros::Subscriber input_sub_;  // the clouds or the depth images (copy_once_subscription.hpp)
   std::unique_ptr<tf2_ros::MessageFilter<Cloud>> cloud_filter_;
   // Images wait for the camera_info of their stamp (ExactTime, queue_size frames), as
   // image_transport's CameraSubscriber does, then for their transform.
-  message_filters::Subscriber<Image> image_sub_;
+  message_filters::PassThrough<Image> image_in_;  // input_sub_'s images, into the synchronizer
   message_filters::Subscriber<CameraInfo> info_sub_;
   std::unique_ptr<ImageSync> image_sync_;
   std::unique_ptr<tf2_ros::MessageFilter<Image>> image_filter_;
