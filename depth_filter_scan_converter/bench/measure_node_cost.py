@@ -36,6 +36,7 @@ from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 from tf2_msgs.msg import TFMessage
 count, flag = int(sys.argv[1]), sys.argv[2]
 period = 1.0 / float(sys.argv[3]) if len(sys.argv) > 3 else 0.1
+scan_topics = sys.argv[4].split(',') if len(sys.argv) > 4 else ['/scan']
 rospy.init_node('node_cost_feed')
 W, H = 320, 163
 v, u = np.mgrid[0:H, 0:W].astype(np.float32)
@@ -53,9 +54,11 @@ t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transf
 static = rospy.Publisher('/tf_static', TFMessage, queue_size=1, latch=True)
 static.publish(TFMessage([t]))
 pub = rospy.Publisher('/cloud_in', PointCloud2, queue_size=5)
-scans = [0]
-rospy.Subscriber('/scan', LaserScan, lambda s: scans.__setitem__(0, scans[0] + 1), queue_size=50)
-while pub.get_num_connections() == 0:
+scans = [0] * len(scan_topics)
+subs = [rospy.Subscriber(topic, LaserScan, lambda s, i=i: scans.__setitem__(i, scans[i] + 1), queue_size=50)
+        for i, topic in enumerate(scan_topics)]
+# Every node subscribes to the clouds once a listener of its scan is there (lazy nodes).
+while pub.get_num_connections() < len(scan_topics) or any(s.get_num_connections() == 0 for s in subs):
     time.sleep(0.05)
 time.sleep(1.0)
 print('ready', flush=True)
@@ -66,7 +69,7 @@ for i in range(count):
     pub.publish(m)
     time.sleep(period)
 time.sleep(1.0)
-print('scans', scans[0], flush=True)
+print('scans', *scans, flush=True)
 """
 
 PARTS = {

@@ -6,11 +6,21 @@ baseline (a node that receives each cloud and publishes one empty 1441-beam scan
 A fourth node, the converter reading one point per cloud (row and column strides beyond the
 cloud), shows what its glue (tf filter, tf, scan, diagnostics, threads) costs in CPU time.
 
-Each run starts one standalone node (shipped parameters, the same YAML for all) on its own
-roscore, then measure_node_cost.py's feeder publishes N organized 320 x 163 clouds (52,160
-points of 16 bytes) at 10 Hz over TCP; the node's CPU (all its threads, in ns: the toolbox's
-ros/cpu_accounting.py) from the first cloud until a second after the last is divided by the
-clouds sent. The nodes take turns, `--repeat` rounds; the medians are reported.
+All four nodes run at once on one roscore (shipped parameters, the same YAML for all), each
+subscribed to the same clouds and publishing its own scan topic; measure_node_cost.py's feeder
+publishes N organized 320 x 163 clouds (52,160 points of 16 bytes) at 10 Hz over TCP. Each node's
+CPU (all its threads, in ns: the toolbox's ros/cpu_accounting.py) from the first cloud until a
+second after the last is divided by the clouds sent. Because the nodes take the same clouds in
+the same seconds, whatever else the machine does slows them alike: the ratio is taken per
+round, `--repeat` rounds (fresh processes each), and the median and range are reported.
+
+The whole node's CPU includes roscpp's network thread reading the 834 kB cloud from its socket,
+in however many reads the data happens to arrive: that alone moves the transport baseline by
+about 0.1 ms per cloud from round to round, as much as the converter's whole core. The work
+that tells the nodes apart runs in the spinner thread (the standalone nodes spin in their main
+thread): deserialising the cloud (the same in all), the tf filter, the conversion and
+publishing. Its CPU, read per thread from /proc/<pid>/task/<pid>/schedstat, is the second,
+steadier figure.
 
 pointcloud_to_laserscan is not packaged in Debian 12 and is not built here: the per-point node
 is a faithful stand-in for its per-cloud work (tf filter, the whole cloud transformed with
@@ -27,11 +37,12 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(os.path.dirname(PKG), "scripts"))
-from laserscan_toolbox.ros.cpu_accounting import process_cpu_s  # noqa: E402
+from laserscan_toolbox.ros.cpu_accounting import process_cpu_s, thread_cpu_s  # noqa: E402
 from measure_node_cost import FEED, node_binary, start_master  # noqa: E402
 
 # name -> (executable, extra private parameters)
@@ -49,27 +60,42 @@ LABELS = {
 }
 
 
-def run_once(kind, clouds, tmp):
-    """CPU seconds of one node of `kind` over `clouds` clouds, and the scans it sent back."""
-    env, core = start_master(tmp)
-    node = feed = None
+IDLE_S = 3.0
+
+
+def WINDOW_S(clouds):  # noqa: N802: the feeder's window: the clouds at 10 Hz, then a second
+    return clouds / 10.0 + 1.0
+
+
+def run_round(clouds, tmp):
+    """CPU seconds of every node of NODES over the same `clouds` clouds, and the scans each sent."""
+    env, core = start_master(tmp, node_names=tuple(NODES))
+    nodes, feed = {}, None
     try:
-        executable, params = NODES[kind]
-        node = subprocess.Popen([node_binary(env, executable), "__name:=conv"] + params, env=env, stdout=subprocess.DEVNULL,
-                                stderr=subprocess.DEVNULL)
-        flag = os.path.join(tmp, "go_%s" % kind)
-        feed = subprocess.Popen([sys.executable, "-c", FEED, str(clouds), flag], env=env, stdout=subprocess.PIPE,
+        for kind, (executable, params) in NODES.items():
+            nodes[kind] = subprocess.Popen([node_binary(env, executable), "__name:=%s" % kind, "scan:=/scan_%s" % kind]
+                                           + params, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        flag = os.path.join(tmp, "go")
+        feed = subprocess.Popen([sys.executable, "-c", FEED, str(clouds), flag, "10",
+                                 ",".join("/scan_%s" % kind for kind in NODES)], env=env, stdout=subprocess.PIPE,
                                 text=True)
         if feed.stdout.readline().strip() != "ready":
-            raise RuntimeError("the feeder did not connect to the %s node" % kind)
-        before = process_cpu_s(node.pid)
+            raise RuntimeError("the feeder did not connect to the nodes")
+        def read():
+            return {kind: (process_cpu_s(p.pid), thread_cpu_s(p.pid, p.pid)) for kind, p in nodes.items()}
+        quiet = read()
+        time.sleep(IDLE_S)  # connected, no cloud yet: what each node spends anyway
+        before = read()
         open(flag, "w").close()
-        scans = int(feed.stdout.readline().split()[1])
-        cpu = process_cpu_s(node.pid) - before
+        scans = [int(n) for n in feed.stdout.readline().split()[1:]]
+        after = read()
         os.remove(flag)
-        return cpu, scans
+        # per node: CPU seconds in the window (whole node, spinner thread), idle CPU seconds per second
+        cpu = {kind: (after[kind][0] - before[kind][0], after[kind][1] - before[kind][1],
+                      (before[kind][0] - quiet[kind][0]) / IDLE_S) for kind in NODES}
+        return cpu, dict(zip(NODES, scans)), WINDOW_S(clouds)
     finally:
-        for p in (feed, node, core):
+        for p in [feed] + list(nodes.values()) + [core]:
             if p is not None and p.poll() is None:
                 p.send_signal(2)
                 p.wait(timeout=60)
@@ -84,30 +110,50 @@ def main():
         print("measure_node_cpu: --clouds and --repeat must be >= 1", file=sys.stderr)
         return 2
     tmp = tempfile.mkdtemp(prefix="node_cpu_")
-    ms = {kind: [] for kind in NODES}
+    # ms[view][kind]: per round, CPU per cloud: 0 the whole node, 1 its spinner thread, 2 the whole node
+    # without its idle CPU (what it spends per second with no cloud: tf polling, timers)
+    ms = tuple({kind: [] for kind in NODES} for _ in range(3))
+    idle = {kind: [] for kind in NODES}
     scans = {kind: 0 for kind in NODES}
     for r in range(args.repeat):
+        cpu, sent, window = run_round(args.clouds, tmp)
         for kind in NODES:
-            cpu, n = run_once(kind, args.clouds, tmp)
-            ms[kind].append(1000.0 * cpu / args.clouds)
-            scans[kind] += n
-            print("round %d, %s: %d scans of %d clouds, %.3f ms of CPU per cloud"
-                  % (r + 1, kind, n, args.clouds, ms[kind][-1]), file=sys.stderr)
-    med = {kind: statistics.median(v) for kind, v in ms.items()}
-    above = {kind: med[kind] - med["transport"] for kind in NODES}
-    print("CPU per 52,160-point cloud over TCP at 10 Hz, median of %d rounds of %d clouds:" % (args.repeat, args.clouds))
-    print()
-    print("| node | CPU per cloud [ms] | above transport [ms] | scans / clouds |")
-    print("|---|---|---|---|")
-    for kind in NODES:
-        print("| %s | %.3f | %s | %d / %d |" % (LABELS[kind], med[kind], "" if kind == "transport" else
-                                                "%.3f" % above[kind], scans[kind], args.clouds * args.repeat))
-    ratio = above["per_point"] / above["converter"] if above["converter"] > 0 else float("nan")
-    print()
-    print("per-point node / converter node, above transport: %.1fx (in all: %.1fx)"
-          % (ratio, med["per_point"] / med["converter"]))
-    return 0 if all(scans[k] > 0 for k in NODES) else 3
+            node, spinner, idle_per_s = cpu[kind]
+            ms[0][kind].append(1000.0 * node / args.clouds)
+            ms[1][kind].append(1000.0 * spinner / args.clouds)
+            ms[2][kind].append(1000.0 * (node - idle_per_s * window) / args.clouds)
+            idle[kind].append(1000.0 * idle_per_s)
+            scans[kind] += sent[kind]
+        print("round %d, CPU per cloud [ms], node / without idle / spinner thread: %s" % (r + 1, ", ".join(
+            "%s %.3f / %.3f / %.3f" % (k, ms[0][k][-1], ms[2][k][-1], ms[1][k][-1]) for k in NODES)), file=sys.stderr)
 
+    def above(view, kind):  # per round, both from the same round
+        return [a - t for a, t in zip(ms[view][kind], ms[view]["transport"])]
+
+    def ratios(view):
+        return [p / c if c > 0 else float("nan") for p, c in zip(above(view, "per_point"), above(view, "converter"))]
+
+    def cell(view, kind, relative):
+        if relative and kind == "transport":
+            return ""
+        return "%.3f" % statistics.median(above(view, kind) if relative else ms[view][kind])
+
+    print("CPU per 52,160-point cloud over TCP at 10 Hz, all nodes fed the same clouds at once, median of %d "
+          "rounds of %d clouds:" % (args.repeat, args.clouds))
+    print()
+    print("| node | whole node [ms/cloud] | idle [ms/s] | without idle [ms/cloud] | above transport [ms] "
+          "| spinner thread [ms/cloud] | above transport [ms] | scans / clouds |")
+    print("|---|---|---|---|---|---|---|---|")
+    for kind in NODES:
+        print("| %s | %s | %.2f | %s | %s | %s | %s | %d / %d |" % (
+            LABELS[kind], cell(0, kind, False), statistics.median(idle[kind]), cell(2, kind, False),
+            cell(2, kind, True), cell(1, kind, False), cell(1, kind, True), scans[kind], args.clouds * args.repeat))
+    print()
+    for view, what in ((0, "whole node"), (2, "whole node without idle"), (1, "spinner thread")):
+        r = ratios(view)
+        print("per-point node / converter node, above transport, %s: %.1fx (rounds: %s)"
+              % (what, statistics.median(r), ", ".join("%.1fx" % x for x in r)))
+    return 0 if all(scans[k] > 0 for k in NODES) else 3
 
 if __name__ == "__main__":
     sys.exit(main())
