@@ -137,13 +137,13 @@ void DepthFilterScanConverter::subscribeInput()
   const auto queue = static_cast<std::uint32_t>(queue_size_);
   if (input_ == DepthInput::Cloud)
   {
-    input_sub_ = subscribeCopyingOnce<Cloud>(nh_, "cloud_in", queue,
-                                             [this](const Cloud::ConstPtr& cloud) { arrived(cloud, nullptr, *cloud_filter_); });
+    input_sub_ = subscribeCopyingOnce<Cloud>(
+      nh_, "cloud_in", queue, [this](const Cloud::ConstPtr& cloud) { arrived(cloud, nullptr, *cloud_filter_); });
   }
   else
   {
-    input_sub_ = subscribeCopyingOnce<Image>(nh_, "image", queue,
-                                             [this](const Image::ConstPtr& image) { image_in_.add(image); });
+    input_sub_ =
+      subscribeCopyingOnce<Image>(nh_, "image", queue, [this](const Image::ConstPtr& image) { image_in_.add(image); });
     info_sub_.subscribe(nh_, "camera_info", queue);
   }
 }

@@ -93,8 +93,7 @@ void expectSameAsRoscpp(const std::vector<std::uint8_t>& bytes, M stale)
   dfsc::wire::read(ours, stale);
   EXPECT_EQ(ours.getLength(), 0u);  // every byte read
   M roscpps;
-  ros::serialization::IStream theirs(const_cast<std::uint8_t*>(bytes.data()),
-                                     static_cast<std::uint32_t>(bytes.size()));
+  ros::serialization::IStream theirs(const_cast<std::uint8_t*>(bytes.data()), static_cast<std::uint32_t>(bytes.size()));
   ros::serialization::deserialize(theirs, roscpps);
   EXPECT_EQ(wireBytes(stale), bytes);
   EXPECT_EQ(wireBytes(roscpps), bytes);
