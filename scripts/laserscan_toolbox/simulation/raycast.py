@@ -15,6 +15,9 @@ Conventions shared by every function here:
   the vertical axis (oriented boxes that stay upright, which is all a shop
   floor needs).  Cylinders are vertical: centre xy (M, 2), radius (M,),
   z range [z0, z1].
+- The ``*_from_point`` functions are the planar case: rays in the plane from one
+  origin (a 2D scan), against the sections of the boxes (rectangles) and
+  cylinders (circles) by that plane, with the same results as the 3D functions.
 """
 import numpy as np
 
@@ -112,6 +115,76 @@ def ray_vcylinders(origins, directions, centers_xy, radius, z0, z1):
     hit = side_ok & (tnear <= tfar) & (tfar > EPS)
     t = np.where(tnear > EPS, tnear, tfar)
     return np.where(hit, t, np.inf)
+
+
+def _slab_from_point(lo, hi, o, d):
+    """``_slab`` for one origin: lo, hi, o (M,) per box, d (N, M) or (N, 1).  The zero
+    direction components (rare: a beam exactly along a face) are patched afterwards."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+        t1 = (lo - o) * inv
+        t2 = (hi - o) * inv
+    tmin = np.minimum(t1, t2)
+    tmax = np.maximum(t1, t2)
+    zero = d == 0.0
+    if zero.any():
+        zero = np.broadcast_to(zero, tmin.shape)
+        inside = (o >= lo) & (o <= hi)
+        tmin[zero] = np.broadcast_to(np.where(inside, -np.inf, np.inf), tmin.shape)[zero]
+        tmax[zero] = np.inf
+    return tmin, tmax
+
+
+def ray_rects_from_point(origin, directions, centers, half, yaw=None):
+    """Distances (N, M) from ONE origin (2,) along planar directions (N, 2) to upright
+    rectangles: centre (M, 2), half extents (M, 2), yaw (M,) or None.
+
+    The 2D case of ``ray_boxes`` (level rays inside the boxes' height), with its results
+    and conventions; the origin in each box's frame is (M,), only the directions turned
+    into the boxes' frames are (N, M), which makes a 2D scan several times cheaper.
+    """
+    o = np.asarray(origin, float)
+    d = np.asarray(directions, float)
+    c = np.asarray(centers, float).reshape(-1, 2)
+    h = np.asarray(half, float).reshape(-1, 2)
+    rx, ry = o[0] - c[:, 0], o[1] - c[:, 1]
+    dx, dy = d[:, 0:1], d[:, 1:2]
+    if yaw is not None:
+        yaw = np.asarray(yaw, float)
+        cs, sn = np.cos(yaw), np.sin(yaw)
+        # The rays in each box's own frame (rotated by -yaw), as ray_boxes does.
+        rx, ry = cs * rx + sn * ry, -sn * rx + cs * ry
+        dx, dy = cs * dx + sn * dy, -sn * dx + cs * dy
+    tnear, tfar = _slab_from_point(-h[:, 0], h[:, 0], rx, dx)
+    ty_min, ty_max = _slab_from_point(-h[:, 1], h[:, 1], ry, dy)
+    tnear = np.maximum(tnear, ty_min)
+    tfar = np.minimum(tfar, ty_max)
+    hit = (tnear <= tfar) & (tfar > EPS)
+    return np.where(hit, np.where(tnear > EPS, tnear, tfar), np.inf)
+
+
+def ray_circles_from_point(origin, directions, centers, radius):
+    """Distances (N, M) from ONE origin (2,) along planar directions (N, 2) to circles:
+    centre (M, 2), radius (M,).  The 2D case of ``ray_vcylinders`` (level rays inside
+    the cylinders' height), with its results and conventions (a tangent ray hits)."""
+    o = np.asarray(origin, float)
+    d = np.asarray(directions, float)
+    cxy = np.asarray(centers, float).reshape(-1, 2)
+    r = np.asarray(radius, float)
+    ox, oy = o[0] - cxy[:, 0], o[1] - cxy[:, 1]
+    dx, dy = d[:, 0:1], d[:, 1:2]
+    a = dx * dx + dy * dy
+    # A zero direction never reaches a side (ray_vcylinders: +inf whether inside or not).
+    flat = a < 1e-18
+    a = np.where(flat, 1.0, a)
+    b = 2.0 * (ox * dx + oy * dy)
+    c = ox * ox + oy * oy - r * r
+    disc = b * b - 4.0 * a * c
+    sq = np.sqrt(np.maximum(disc, 0.0))
+    t0 = (-b - sq) / (2.0 * a)
+    t1 = (-b + sq) / (2.0 * a)
+    hit = (disc >= 0.0) & (t0 <= t1) & (t1 > EPS) & ~flat
+    return np.where(hit, np.where(t0 > EPS, t0, t1), np.inf)
 
 
 def ray_floor_ceiling(origins, directions, holes=None, ceiling=np.inf):
