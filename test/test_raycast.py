@@ -246,6 +246,47 @@ def test_planar_circles_equal_ray_vcylinders():
     assert t[0, 0] == pytest.approx(3.0)
 
 
+def test_pairs_in_reach_hold_every_hit():
+    """Every ray / shape pair with a hit within max_range is among pairs_in_reach's, for
+    beams in any order and range of angles, from inside and outside the shapes, with
+    tangent rays and rays through corners; and most pairs without a hit are left out."""
+    rng = np.random.default_rng(5)
+    kept = total = 0
+    for trial in range(40):
+        m = 50
+        c = rng.uniform(-8, 8, (m, 2))
+        h = rng.uniform(0.0, 1.2, (m, 2))
+        yaw = rng.uniform(-math.pi, math.pi, m)
+        origin = np.array([0.0, 0.0]) if trial % 3 == 0 else rng.uniform(-4, 4, 2)
+        # the special rectangles and circles, placed for the origin (0, 0)
+        sc, sh, syaw = _special_rects()
+        c, h, yaw = np.vstack([c, sc + origin]), np.vstack([h, sh]), np.concatenate([yaw, syaw])
+        # Beams: shuffled, shifted out of [-pi, pi), and straight at every corner.
+        n = 300
+        angles = rng.permutation(np.linspace(-math.pi, math.pi, n, endpoint=False)) + rng.uniform(-7, 7)
+        corners = raycast.box_corners(np.column_stack([c, np.zeros(len(c))]),
+                                      np.column_stack([h, np.ones(len(c))]), yaw)[:, ::2, :2]
+        rel = corners.reshape(-1, 2) - origin
+        angles = np.concatenate([angles, np.arctan2(rel[:, 1], rel[:, 0])])
+        d = np.column_stack([np.cos(angles), np.sin(angles)])
+        max_range = np.inf if trial % 2 else 6.0
+        r = h[:, 0]
+        casts = ((lambda pairs=None: raycast.ray_rects_from_point(origin, d, c, h, yaw, pairs=pairs),
+                  np.hypot(h[:, 0], h[:, 1])),
+                 (lambda pairs=None: raycast.ray_circles_from_point(origin, d, c, r, pairs=pairs), r))
+        for cast, radius in casts:
+            table = cast()
+            rays, shapes = raycast.pairs_in_reach(origin, angles, c, radius, max_range)
+            chosen = np.zeros(table.shape, bool)
+            chosen[rays, shapes] = True
+            assert len(rays) == chosen.sum()  # no pair twice
+            assert not (np.isfinite(table) & (table <= max_range) & ~chosen).any()
+            assert np.array_equal(cast((rays, shapes)), table[rays, shapes])
+            kept += len(rays)
+            total += table.size
+    assert kept < 0.3 * total
+
+
 def reference_band_scan(world, origin_xy, angles, z_min, z_max, rel_time, max_range=np.inf,
                         static_only=False, glass=True):
     """The ground truth as it was cast with the 3D ray casting (every obstacle of the band
@@ -306,6 +347,13 @@ def test_band_scan_equals_the_3d_reference():
                     _same(np.where(scan <= max_range, scan, np.inf), ref)
                     compared += np.isfinite(ref).sum()
     assert compared > 100000
+    # beams in any order and angle range (an ideal scan's angles + the robot's yaw)
+    order = rng.permutation(len(angles))
+    for shift in (2.5, -7.0, 13.0):
+        a = angles[order] + shift
+        for glass in (True, False):
+            ref = reference_band_scan(w, origins[0], a, 0.05, 1.0, 4.0, glass=glass)
+            _same(w.band_scan(origins[0], a, 0.05, 1.0, 4.0, glass=glass), ref)
     # the static world alone: no people
     ref = reference_band_scan(w, origins[1], angles, 0.05, 1.0, 3.0, static_only=True)
     _same(w.band_scan(origins[1], angles, 0.05, 1.0, 3.0, static_only=True), ref)

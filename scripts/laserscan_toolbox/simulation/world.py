@@ -143,6 +143,7 @@ class World:
         self._rect_z1 = np.concatenate([self.box_c[:, 2] + self.box_h[:, 2], inf,
                                         self.glass_c[:, 2] + self.glass_h[:, 2]])
         self._rect_glass = np.arange(len(self._rect_yaw)) >= len(self.box_yaw) + len(ha)
+        self._rect_reach = np.hypot(self._rect_h[:, 0], self._rect_h[:, 1])  # bounding circles
         self.person_r = np.array([p.radius for p in self.people], float)
         self.person_h = np.array([p.height for p in self.people], float)
         self._paths = []
@@ -234,23 +235,25 @@ class World:
         o = np.asarray(origin_xy, float)[:2]
         d = np.column_stack([np.cos(angles), np.sin(angles)])
         without_glass = np.full(len(angles), np.inf)
-        t_glass = without_glass
-        sel = (self._rect_z1 >= z_min) & (self._rect_z0 <= z_max)
-        sel &= _within(o, self._rect_c, np.hypot(self._rect_h[:, 0], self._rect_h[:, 1]), max_range)
-        if sel.any():
-            t = raycast.ray_rects_from_point(o, d, self._rect_c[sel], self._rect_h[sel],
-                                             self._rect_yaw[sel])
-            pane = self._rect_glass[sel]
-            if not pane.all():
-                without_glass = t[:, ~pane].min(axis=1)
-            if pane.any():
-                t_glass = t[:, pane].min(axis=1)
+        t_glass = np.full(len(angles), np.inf)
+        # Only the ray / obstacle pairs that can meet are cast: obstacles in the band,
+        # within max_range, beams in the sector under which each is seen.
+        band = np.flatnonzero((self._rect_z1 >= z_min) & (self._rect_z0 <= z_max))
+        rays, k = raycast.pairs_in_reach(o, angles, self._rect_c[band], self._rect_reach[band],
+                                         max_range)
+        shapes = band[k]
+        t = raycast.ray_rects_from_point(o, d, self._rect_c, self._rect_h, self._rect_yaw,
+                                         pairs=(rays, shapes))
+        pane = self._rect_glass[shapes]
+        np.minimum.at(without_glass, rays[~pane], t[~pane])
+        np.minimum.at(t_glass, rays[pane], t[pane])
         solids = self.solids(rel_time, static_only=static_only)
-        sel = (solids["cyl_z1"] >= z_min) & (solids["cyl_z0"] <= z_max)
-        sel &= _within(o, solids["cyl_xy"], solids["cyl_r"], max_range)
-        if sel.any():
-            t = raycast.ray_circles_from_point(o, d, solids["cyl_xy"][sel], solids["cyl_r"][sel])
-            without_glass = np.minimum(without_glass, t.min(axis=1))
+        band = np.flatnonzero((solids["cyl_z1"] >= z_min) & (solids["cyl_z0"] <= z_max))
+        rays, k = raycast.pairs_in_reach(o, angles, solids["cyl_xy"][band], solids["cyl_r"][band],
+                                         max_range)
+        t = raycast.ray_circles_from_point(o, d, solids["cyl_xy"], solids["cyl_r"],
+                                           pairs=(rays, band[k]))
+        np.minimum.at(without_glass, rays, t)
         return np.minimum(without_glass, t_glass), without_glass
 
     def occupancy(self, resolution, z_min, z_max, rel_time=0.0, static_only=True, margin=0.5):
@@ -294,12 +297,6 @@ class World:
             mark(np.concatenate([cx + lx[inside], cx + r * np.cos(ang)]),
                  np.concatenate([cy + ly[inside], cy + r * np.sin(ang)]))
         return grid, (ox, oy)
-
-
-def _within(origin_xy, centers_xy, radius, max_range):
-    """Which shapes (bounding circles at centers_xy, radius) come within max_range of origin_xy."""
-    c = np.asarray(centers_xy, float).reshape(-1, 2)
-    return np.hypot(c[:, 0] - origin_xy[0], c[:, 1] - origin_xy[1]) - radius <= max_range
 
 
 # ----- the built-in shop floor ------------------------------------------------------------
