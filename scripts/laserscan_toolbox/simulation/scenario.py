@@ -175,7 +175,8 @@ class Scenario:
 
         The evaluation asks for the same scan several times (with and without glass, to
         its range_max and a little beyond): the last ones are kept, least recently used
-        out first, and serve every call whose reach is not larger.
+        out first, and serve every call whose reach is not larger (the world does not
+        change once the scenario is made).
         """
         x, y, yaw = (float(v) for v in pose)
         key = (float(t), x, y, yaw, float(angle_min), float(angle_increment), int(n),
