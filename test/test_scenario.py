@@ -76,6 +76,42 @@ def test_ideal_scan_geometry():
     assert r[0] == np.inf
 
 
+def test_ideal_scans_kept_for_reuse_are_the_scans_cast_anew():
+    """The evaluation asks for the same ideal scan with and without glass, to two maximum
+    ranges, at the true pose given or not: every answer is what the world casts anew, also
+    when a kept scan was cast to a shorter range, and the kept scans stay within their bound."""
+    sc = Scenario.default()
+    n, inc = 360, 2 * math.pi / 360
+    t = sc.start_time + 20.0
+    x, y, yaw = sc.true_pose(t)
+    rel = t - sc.start_time
+
+    def cast_anew(range_min, range_max, z_min, z_max, glass):
+        r = sc.world.band_scan((x, y), -math.pi + np.arange(n) * inc + yaw, z_min, z_max, rel,
+                               max_range=range_max, glass=glass)
+        return np.where(r < range_min, -np.inf, r)
+
+    calls = [(0.1, 4.0, True, None), (0.1, 4.0, False, (x, y, yaw)), (0.3, 12.0, True, None),
+             (0.3, 12.0, False, None), (0.1, 3.0, True, (x, y, yaw)), (0.0, np.inf, False, None)]
+    for z_min, z_max in ((0.05, 1.0), (0.18, 0.22)):
+        for range_min, range_max, glass, pose in calls:
+            got = sc.ideal_scan(t, -math.pi, math.pi - inc, inc, range_min, range_max, z_min, z_max,
+                                pose=pose, glass=glass)
+            assert np.array_equal(got, cast_anew(range_min, range_max, z_min, z_max, glass)), \
+                (z_min, range_max, glass)
+    far = sc.ideal_scan(t, -math.pi, math.pi - inc, inc, 0.0, np.inf, 0.05, 1.0)
+    assert np.nanmax(far[np.isfinite(far)]) > 12.0  # the case above that a short cast would miss
+    # A bound of three scans: the oldest go, what is asked is still right.
+    sc.IDEAL_SCAN_CACHE_BYTES = 3 * 2 * 8 * n
+    for k in range(6):
+        sc.ideal_scan(t + k, -math.pi, math.pi - inc, inc, 0.1, 12.0, 0.05, 1.0)
+        assert sc._ideal_cache_bytes <= sc.IDEAL_SCAN_CACHE_BYTES
+    assert [key[0] for key in sc._ideal_cache] == [t + 3, t + 4, t + 5]
+    x, y, yaw = sc.true_pose(t)
+    assert np.array_equal(sc.ideal_scan(t, -math.pi, math.pi - inc, inc, 0.1, 12.0, 0.05, 1.0),
+                          cast_anew(0.1, 12.0, 0.05, 1.0, True))
+
+
 def test_ground_truth_grid_has_table_tops_only_in_their_band():
     sc = Scenario.default()
     res = 0.05

@@ -17,6 +17,7 @@ Times: every ``t`` argument is absolute ROS time in seconds (the bag's clock);
 the scenario starts at ``start_time`` (default 1000 s) and lasts ``duration`` s.
 Heights are above the floor; ``base_link`` is on the floor at the robot's centre.
 """
+import collections
 import math
 import time
 
@@ -74,6 +75,8 @@ class Scenario:
         self._traj = simulate_trajectory(robot, self.route, self.laps, duration)
         #: Length of the scenario in seconds (None at construction: one lap + rest).
         self.duration = float(self._traj["t"][-1]) if duration is None else float(duration)
+        self._ideal_cache = collections.OrderedDict()  # see _band_scans
+        self._ideal_cache_bytes = 0
 
     # ----- construction ----------------------------------------------------------------
     @classmethod
@@ -157,11 +160,44 @@ class Scenario:
         range_max; -inf: closer than range_min.
         """
         n = int(round((angle_max - angle_min) / angle_increment)) + 1
-        angles = angle_min + np.arange(n) * angle_increment
-        x, y, yaw = self.true_pose(t) if pose is None else pose
-        r = self.world.band_scan((x, y), angles + yaw, z_min, z_max, float(t) - self.start_time,
-                                 max_range=range_max, glass=glass)
+        pose = self.true_pose(t) if pose is None else pose
+        with_glass, without_glass = self._band_scans(t, pose, angle_min, angle_increment, n,
+                                                     z_min, z_max, range_max)
+        r = with_glass if glass else without_glass
+        r = np.where(r <= range_max, r, np.inf)
         return np.where(r < range_min, -np.inf, r)
+
+    #: Memory the ideal scans kept for reuse may take (bytes).
+    IDEAL_SCAN_CACHE_BYTES = 64 << 20
+
+    def _band_scans(self, t, pose, angle_min, angle_increment, n, z_min, z_max, reach):
+        """World.band_scans (with, without glass) of an ideal scan, exact up to ``reach``.
+
+        The evaluation asks for the same scan several times (with and without glass, to
+        its range_max and a little beyond): the last ones are kept, least recently used
+        out first, and serve every call whose reach is not larger (the world does not
+        change once the scenario is made).
+        """
+        x, y, yaw = (float(v) for v in pose)
+        key = (float(t), x, y, yaw, float(angle_min), float(angle_increment), int(n),
+               float(z_min), float(z_max))
+        cache = self._ideal_cache
+        kept = cache.get(key)
+        if kept is not None and kept[0] >= reach:
+            cache.move_to_end(key)
+            return kept[1]
+        angles = angle_min + np.arange(n) * angle_increment
+        scans = self.world.band_scans((x, y), angles + yaw, z_min, z_max, float(t) - self.start_time,
+                                      max_range=reach)
+        if kept is not None:
+            del cache[key]
+            self._ideal_cache_bytes -= kept[2]
+        size = sum(s.nbytes for s in scans)
+        cache[key] = (reach, scans, size)
+        self._ideal_cache_bytes += size
+        while self._ideal_cache_bytes > self.IDEAL_SCAN_CACHE_BYTES and len(cache) > 1:
+            self._ideal_cache_bytes -= cache.popitem(last=False)[1][2]
+        return scans
 
     def ground_truth_grid(self, resolution, z_min, z_max, static_only=True, t=None):
         """Occupancy of the obstacles overlapping [z_min, z_max] (floor holes: their area).

@@ -129,6 +129,21 @@ class World:
         self.cyl_z1 = np.array([x.z1 for x in c], float)
         self.hole_arr = np.array([[h.x0, h.x1, h.y0, h.y1, h.depth] for h in self.holes],
                                  float).reshape(-1, 5)
+        # The obstacles of a 2D band scan as rectangles: boxes, then floor holes (at their
+        # rim, whatever the band: z range +-inf), then glass panes.
+        ha = self.hole_arr
+        hole_c = np.column_stack([(ha[:, 0] + ha[:, 1]) / 2, (ha[:, 2] + ha[:, 3]) / 2])
+        hole_h = np.column_stack([(ha[:, 1] - ha[:, 0]) / 2, (ha[:, 3] - ha[:, 2]) / 2])
+        self._rect_c = np.vstack([self.box_c[:, :2], hole_c, self.glass_c[:, :2]])
+        self._rect_h = np.vstack([self.box_h[:, :2], hole_h, self.glass_h[:, :2]])
+        self._rect_yaw = np.concatenate([self.box_yaw, np.zeros(len(ha)), self.glass_yaw])
+        inf = np.full(len(ha), np.inf)
+        self._rect_z0 = np.concatenate([self.box_c[:, 2] - self.box_h[:, 2], -inf,
+                                        self.glass_c[:, 2] - self.glass_h[:, 2]])
+        self._rect_z1 = np.concatenate([self.box_c[:, 2] + self.box_h[:, 2], inf,
+                                        self.glass_c[:, 2] + self.glass_h[:, 2]])
+        self._rect_glass = np.arange(len(self._rect_yaw)) >= len(self.box_yaw) + len(ha)
+        self._rect_reach = np.hypot(self._rect_h[:, 0], self._rect_h[:, 1])  # bounding circles
         self.person_r = np.array([p.radius for p in self.people], float)
         self.person_h = np.array([p.height for p in self.people], float)
         self._paths = []
@@ -204,38 +219,42 @@ class World:
         closest obstacle whose height overlaps [z_min, z_max]; holes count at their
         rim; glass panes count unless ``glass`` is False; +inf where nothing within
         ``max_range``."""
-        angles = np.asarray(angles, float)
-        n = len(angles)
-        o = np.zeros((n, 3))
-        o[:, 0], o[:, 1] = origin_xy[0], origin_xy[1]
-        d = np.column_stack([np.cos(angles), np.sin(angles), np.zeros(n)])
-        t = np.full(n, np.inf)
-        # Extrude every obstacle in the band to a prism around z = 0, where the rays lie.
-        box_c, box_h, box_yaw = self.box_c, self.box_h, self.box_yaw
-        if glass and len(self.glass):
-            box_c = np.vstack([box_c, self.glass_c])
-            box_h = np.vstack([box_h, self.glass_h])
-            box_yaw = np.concatenate([box_yaw, self.glass_yaw])
-        bz0 = box_c[:, 2] - box_h[:, 2]
-        bz1 = box_c[:, 2] + box_h[:, 2]
-        sel = (bz1 >= z_min) & (bz0 <= z_max)
-        if sel.any():
-            c = box_c[sel].copy()
-            h = box_h[sel].copy()
-            c[:, 2], h[:, 2] = 0.0, 1.0
-            t = np.minimum(t, raycast.ray_boxes(o, d, c, h, box_yaw[sel]).min(axis=1))
-        if len(self.hole_arr):
-            ha = self.hole_arr
-            c = np.column_stack([(ha[:, 0] + ha[:, 1]) / 2, (ha[:, 2] + ha[:, 3]) / 2, np.zeros(len(ha))])
-            h = np.column_stack([(ha[:, 1] - ha[:, 0]) / 2, (ha[:, 3] - ha[:, 2]) / 2, np.ones(len(ha))])
-            t = np.minimum(t, raycast.ray_boxes(o, d, c, h).min(axis=1))
-        solids = self.solids(rel_time, static_only=static_only)
-        sel = (solids["cyl_z1"] >= z_min) & (solids["cyl_z0"] <= z_max)
-        if sel.any():
-            m = int(sel.sum())
-            t = np.minimum(t, raycast.ray_vcylinders(o, d, solids["cyl_xy"][sel], solids["cyl_r"][sel],
-                                                     -np.ones(m), np.ones(m)).min(axis=1))
+        with_glass, without_glass = self.band_scans(origin_xy, angles, z_min, z_max, rel_time,
+                                                    max_range, static_only)
+        t = with_glass if glass else without_glass
         return np.where(t <= max_range, t, np.inf)
+
+    def band_scans(self, origin_xy, angles, z_min, z_max, rel_time, max_range=np.inf,
+                   static_only=False):
+        """``band_scan`` with and without the glass panes in one pass: (with, without).
+
+        Not clipped to ``max_range``: a range within it is exact, a larger one may be
+        too large (obstacles that cannot come within ``max_range`` are left out).
+        """
+        angles = np.asarray(angles, float)
+        o = np.asarray(origin_xy, float)[:2]
+        d = np.column_stack([np.cos(angles), np.sin(angles)])
+        without_glass = np.full(len(angles), np.inf)
+        t_glass = np.full(len(angles), np.inf)
+        # Only the ray / obstacle pairs that can meet are cast: obstacles in the band,
+        # within max_range, beams in the sector under which each is seen.
+        band = np.flatnonzero((self._rect_z1 >= z_min) & (self._rect_z0 <= z_max))
+        rays, k = raycast.pairs_in_reach(o, angles, self._rect_c[band], self._rect_reach[band],
+                                         max_range)
+        shapes = band[k]
+        t = raycast.ray_rects_from_point(o, d, self._rect_c, self._rect_h, self._rect_yaw,
+                                         pairs=(rays, shapes))
+        pane = self._rect_glass[shapes]
+        np.minimum.at(without_glass, rays[~pane], t[~pane])
+        np.minimum.at(t_glass, rays[pane], t[pane])
+        solids = self.solids(rel_time, static_only=static_only)
+        band = np.flatnonzero((solids["cyl_z1"] >= z_min) & (solids["cyl_z0"] <= z_max))
+        rays, k = raycast.pairs_in_reach(o, angles, solids["cyl_xy"][band], solids["cyl_r"][band],
+                                         max_range)
+        t = raycast.ray_circles_from_point(o, d, solids["cyl_xy"], solids["cyl_r"],
+                                           pairs=(rays, band[k]))
+        np.minimum.at(without_glass, rays, t)
+        return np.minimum(without_glass, t_glass), without_glass
 
     def occupancy(self, resolution, z_min, z_max, rel_time=0.0, static_only=True, margin=0.5):
         """Cells whose area meets an obstacle overlapping [z_min, z_max] (holes: their
