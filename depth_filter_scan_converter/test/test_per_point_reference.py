@@ -45,7 +45,8 @@ def test_per_point_node_finds_the_converters_closest_points():
         # measure_node_cost's feeder: a static tf and organized clouds of a camera looking forward.
         flag = os.path.join(tmp, "go")
         open(flag, "w").close()
-        procs.append(subprocess.Popen([sys.executable, "-c", FEED, "5", flag], env=env, stdout=subprocess.DEVNULL))
+        procs.append(subprocess.Popen([sys.executable, "-c", FEED, "5", flag, "10", "/scan_converter,/scan_per_point"],
+                                      env=env, stdout=subprocess.DEVNULL))
         out, _ = listen.communicate(timeout=120)
         scans = json.loads(out.strip().splitlines()[-1])
     finally:
@@ -73,4 +74,5 @@ def test_measure_node_cpu_runs():
     assert out.returncode == 0, out.stderr[-3000:]
     for row in ("transport baseline", "depth_filter_scan_converter_node", "per-point node"):
         assert "| %s" % row in out.stdout
-    assert "per-point node / converter node, above transport:" in out.stdout
+    for view in ("whole node", "whole node without idle", "spinner thread"):
+        assert "per-point node / converter node, above transport, %s:" % view in out.stdout
