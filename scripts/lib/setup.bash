@@ -25,6 +25,7 @@ DEBIAN_PACKAGES=(
   libtf2-dev libtf2-msgs-dev
   # tests and benchmarks
   librostest-dev googletest libgtest-dev libbenchmark-dev pybind11-dev python3-dev python3-pytest
+  python3-pytest-xdist
   # Python side: rospy tools, evaluation, plots
   python3-rospy python3-rosbag python3-rostest python3-roslaunch python3-rosmaster
   python3-rostopic python3-nodelet python3-tf2-ros python3-sensor-msgs python3-nav-msgs
@@ -34,7 +35,8 @@ DEBIAN_PACKAGES=(
   rviz xvfb xauth imagemagick
 )
 
-log() { printf '\033[1m== %s\033[0m\n' "$*"; }
+# Each step with the minutes since the script started (the test suite has a time budget).
+log() { printf '\033[1m== %s\033[0m (%d:%02d)\n' "$*" $((SECONDS / 60)) $((SECONDS % 60)); }
 
 install_debian_packages() {
   local missing=() pkg
