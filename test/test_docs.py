@@ -65,6 +65,7 @@ COMMANDS = {
     "--clouds none --start 5 --output dual_lidar.png": "test/test_rviz_screenshot.py",
     # --- experiments and benchmarks (minutes each; their analysis is tested)
     "scripts/transport_experiment --duration 12 --repeat 3 --arg depth_input:=cloud --output /tmp/transport": CHECKED,
+    "scripts/transport_experiment --duration 12 --repeat 3 --output /tmp/transport": CHECKED,
     "scripts/transport_experiment --output /tmp/transport": CHECKED,
     "scripts/camera_path_benchmark --repeat 3": "test/test_camera_path_benchmark.py",
     "scripts/camera_path_benchmark --repeat 3 --range-noise off": CHECKED,

@@ -226,8 +226,9 @@ def markdown(res):
     la, lb = res["loadavg_before"], res["loadavg_after"]
     return "\n".join([
         "# One nodelet manager (zero-copy) against standalone nodes", "",
-        "Whole pipeline (camera converters x2, with depth_input:=cloud after depth_image_proc x2; "
-        "mergers x2) of launch/pipeline.launch; "
+        "Whole pipeline of launch/pipeline.launch (every node it starts: the depth-camera converters, "
+        "with depth_input:=cloud after depth_image_proc's point_cloud_xyz, the range converters and the "
+        "mergers; transport_results.json names each process); "
         "one simulated bag of %.0f s (%s, seed %d) played %d times per mode, modes alternating; "
         "medians. CPU = user + sys of every process roslaunch started, over the playback window "
         "(rosbag play's 1 s delay, playback, 0.5 s tail), with a consumer of /merged_scan and "
