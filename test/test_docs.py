@@ -70,6 +70,7 @@ COMMANDS = {
     "scripts/camera_path_benchmark --repeat 3": "test/test_camera_path_benchmark.py",
     "scripts/camera_path_benchmark --repeat 3 --range-noise off": CHECKED,
     "scripts/camera_path_benchmark --repeat 3 --width 1280 --height 720 --frames 100 --range-noise off": CHECKED,
+    "scripts/camera_path_benchmark --repeat 3 --source tcp --range-noise off": CHECKED,
     "scripts/camera_path_benchmark --width 640 --height 480 --frames 150 --rate 15 --repeat 2": CHECKED,
     "scripts/soak --quick --output soak_quick": CHECKED,
     "scripts/soak --output soak_30min": CHECKED,
