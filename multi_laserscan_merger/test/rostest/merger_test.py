@@ -170,12 +170,14 @@ class MergerTest(unittest.TestCase):
             # One output per input that is newer than the last output (counted by publish /
             # receive time in the window), each stamped with the newest scan: an input's stamp.
             # Inputs from different connections may arrive out of order; one older than the
-            # last output goes into the next output instead of repeating a stamp (about 12 %
-            # of these inputs on a fully loaded 2-core machine, none on an idle one).
+            # last output goes into the next output instead of repeating a stamp: none on an
+            # idle machine, about 12 % of these inputs with the test suite alone on 2 cores,
+            # 26 % with a compiler and a benchmark running beside it. A merger that published
+            # for one source only, or on a timer, would give at most a third.
             with self.lock:
                 received = sum(1 for t in self.arrivals if start <= t <= end)
             rospy.loginfo('%d inputs published, %d outputs received in %.1f s', len(all_inputs), received, end - start)
-            self.assertGreaterEqual(received, 0.75 * len(all_inputs) - 2)
+            self.assertGreaterEqual(received, 0.6 * len(all_inputs) - 2)
             self.assertLessEqual(received, len(all_inputs) + 4)
             self.assertTrue(all(a < b for a, b in zip(stamps, stamps[1:])), 'output stamps repeat or go back')
             with self.lock:
