@@ -199,7 +199,7 @@ void DepthFilterScanConverter::imageDropped(const Image::ConstPtr& image, const 
   std::lock_guard<std::mutex> lock(mutex_);
   ++received_;
   ++without_info_;
-  if (due(warned_info_))
+  if (warnings_.due("no camera_info"))
     ROS_WARN(
       "[%s] dropped a depth image on %s (stamp %s): no camera_info with its stamp came on %s before a "
       "newer frame's did, or within queue_size (%d) frames",
@@ -237,7 +237,7 @@ void DepthFilterScanConverter::dropMalformed(const std::string& reason, const st
     return k;
   };
   last_malformed_reason_ = reason;
-  if (warn_malformed_.due(kind(reason)))
+  if (warnings_.due("malformed: " + kind(reason)))
     ROS_WARN("[%s] dropped a malformed %s on %s (frame '%s'): %s", private_nh_.getNamespace().c_str(),
              input_ == DepthInput::Cloud ? "cloud" : "depth image", input_topic_.c_str(), frame_id.c_str(),
              reason.c_str());
@@ -264,7 +264,7 @@ void DepthFilterScanConverter::transformFailed(const boost::shared_ptr<const M>&
   Arrival arrival;
   takeArrival(cloud.get(), arrival);
   last_tf_reason_ = failureText(reason);
-  if (due(warned_tf_))
+  if (warnings_.due("no transform"))
     ROS_WARN("[%s] dropped a cloud: no transform %s -> %s at %s: %s", private_nh_.getNamespace().c_str(),
              cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
              laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec).c_str(),
@@ -276,7 +276,7 @@ std::string DepthFilterScanConverter::viewOf(const Cloud& cloud, const Arrival& 
   std::string intensity_note;
   const std::string reason = makeCloudView(cloudLayoutOf(cloud), cloud.data.data(), cloud.data.size(),
                                            params_.input.intensity_field, view, &intensity_note);
-  if (reason.empty() && !intensity_note.empty() && due(warned_intensity_, 30.0))
+  if (reason.empty() && !intensity_note.empty() && warnings_.due("no intensity field", 30.0))
     ROS_WARN("[%s] %s: the scan has no intensities", private_nh_.getNamespace().c_str(), intensity_note.c_str());
   return reason;
 }
@@ -312,7 +312,7 @@ void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
     if (waited > params_.transform.transform_tolerance)
     {
       ++stale_;
-      if (due(warned_late_))
+      if (warnings_.due("late"))
         ROS_WARN("[%s] dropped a cloud that waited %.3f s for its transform %s -> %s (transform_tolerance %.3f s)",
                  name.c_str(), waited, cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
                  params_.transform.transform_tolerance);
@@ -344,7 +344,7 @@ void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
   {
     ++tf_failures_;
     last_tf_reason_ = e.what();
-    if (due(warned_tf_))
+    if (warnings_.due("no transform"))
       ROS_WARN("[%s] dropped a cloud: %s", name.c_str(), e.what());
     return;
   }

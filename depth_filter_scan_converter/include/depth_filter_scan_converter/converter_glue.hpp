@@ -37,7 +37,6 @@ inline std::string describe(const laserscan_common::ParameterError& e)
 int readQueueSize(const ros::NodeHandle& private_nh);
 
 // Per converter, not per call site as ROS_WARN_THROTTLE.
-using laserscan_common::due;
 using laserscan_common::WarningThrottle;
 
 /// Subscribes to the input only while someone listens to an output. The mutex is taken before
