@@ -60,15 +60,19 @@ LABELS = {
 }
 
 
-IDLE_S = 3.0
+IDLE_S = 3.0  # s of no cloud before the feed, for each node's idle CPU
+RATE_HZ = 10
 
 
-def WINDOW_S(clouds):  # noqa: N802: the feeder's window: the clouds at 10 Hz, then a second
-    return clouds / 10.0 + 1.0
+def read_cpu(nodes):
+    """{kind: (CPU seconds of the whole node, of its spinner thread)}: the standalone nodes spin in
+    their main thread, whose id is the pid."""
+    return {kind: (process_cpu_s(p.pid), thread_cpu_s(p.pid, p.pid)) for kind, p in nodes.items()}
 
 
 def run_round(clouds, tmp):
-    """CPU seconds of every node of NODES over the same `clouds` clouds, and the scans each sent."""
+    """Per node of NODES fed the same `clouds` clouds: (CPU seconds of the whole node, of its spinner
+    thread, idle CPU seconds per second); the scans each sent; the window's length in seconds."""
     env, core = start_master(tmp, node_names=tuple(NODES))
     nodes, feed = {}, None
     try:
@@ -76,24 +80,24 @@ def run_round(clouds, tmp):
             nodes[kind] = subprocess.Popen([node_binary(env, executable), "__name:=%s" % kind, "scan:=/scan_%s" % kind]
                                            + params, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         flag = os.path.join(tmp, "go")
-        feed = subprocess.Popen([sys.executable, "-c", FEED, str(clouds), flag, "10",
+        feed = subprocess.Popen([sys.executable, "-c", FEED, str(clouds), flag, str(RATE_HZ),
                                  ",".join("/scan_%s" % kind for kind in NODES)], env=env, stdout=subprocess.PIPE,
                                 text=True)
         if feed.stdout.readline().strip() != "ready":
             raise RuntimeError("the feeder did not connect to the nodes")
-        def read():
-            return {kind: (process_cpu_s(p.pid), thread_cpu_s(p.pid, p.pid)) for kind, p in nodes.items()}
-        quiet = read()
+        quiet = read_cpu(nodes)
         time.sleep(IDLE_S)  # connected, no cloud yet: what each node spends anyway
-        before = read()
+        before = read_cpu(nodes)
+        start = time.monotonic()
         open(flag, "w").close()
         scans = [int(n) for n in feed.stdout.readline().split()[1:]]
-        after = read()
+        after = read_cpu(nodes)
+        window = time.monotonic() - start
         os.remove(flag)
         # per node: CPU seconds in the window (whole node, spinner thread), idle CPU seconds per second
         cpu = {kind: (after[kind][0] - before[kind][0], after[kind][1] - before[kind][1],
                       (before[kind][0] - quiet[kind][0]) / IDLE_S) for kind in NODES}
-        return cpu, dict(zip(NODES, scans)), WINDOW_S(clouds)
+        return cpu, dict(zip(NODES, scans)), window
     finally:
         for p in [feed] + list(nodes.values()) + [core]:
             if p is not None and p.poll() is None:
@@ -138,8 +142,8 @@ def main():
             return ""
         return "%.3f" % statistics.median(above(view, kind) if relative else ms[view][kind])
 
-    print("CPU per 52,160-point cloud over TCP at 10 Hz, all nodes fed the same clouds at once, median of %d "
-          "rounds of %d clouds:" % (args.repeat, args.clouds))
+    print("CPU per 52,160-point cloud over TCP at %d Hz, all nodes fed the same clouds at once, median of %d "
+          "rounds of %d clouds:" % (RATE_HZ, args.repeat, args.clouds))
     print()
     print("| node | whole node [ms/cloud] | idle [ms/s] | without idle [ms/cloud] | above transport [ms] "
           "| spinner thread [ms/cloud] | above transport [ms] | scans / clouds |")
