@@ -173,10 +173,13 @@ TEST(CopyOnceReader, SubscribersTypeIsTheMessagesOwnForZeroCopyInAManager)
 {
   // roscpp hands a publisher's shared pointer to a subscriber in the same process only when the
   // helper's type is the published type.
-  dfsc::CopyOnceCallbackHelper<sensor_msgs::PointCloud2> cloud_helper([](const sensor_msgs::PointCloud2ConstPtr&) {});
-  dfsc::CopyOnceCallbackHelper<sensor_msgs::Image> image_helper([](const sensor_msgs::ImageConstPtr&) {});
-  EXPECT_TRUE(cloud_helper.getTypeInfo() == typeid(sensor_msgs::PointCloud2));
-  EXPECT_TRUE(image_helper.getTypeInfo() == typeid(sensor_msgs::Image));
+  // Made as subscribeCopyingOnce makes them (GCC 12 warns about boost::function temporaries on the stack).
+  const std::function<void(const sensor_msgs::PointCloud2ConstPtr&)> on_cloud = [](const auto&) {};
+  const std::function<void(const sensor_msgs::ImageConstPtr&)> on_image = [](const auto&) {};
+  const auto cloud_helper = boost::make_shared<dfsc::CopyOnceCallbackHelper<sensor_msgs::PointCloud2>>(on_cloud);
+  const auto image_helper = boost::make_shared<dfsc::CopyOnceCallbackHelper<sensor_msgs::Image>>(on_image);
+  EXPECT_TRUE(cloud_helper->getTypeInfo() == typeid(sensor_msgs::PointCloud2));
+  EXPECT_TRUE(image_helper->getTypeInfo() == typeid(sensor_msgs::Image));
 }
 
 int main(int argc, char** argv)
