@@ -17,15 +17,22 @@ round, `--repeat` rounds (fresh processes each), and the median and range are re
 The whole node's CPU includes roscpp's network thread reading the 834 kB cloud from its socket,
 in however many reads the data happens to arrive: that alone moves the transport baseline by
 about 0.1 ms per cloud from round to round, as much as the converter's whole core. The work
-that tells the nodes apart runs in the spinner thread (the standalone nodes spin in their main
-thread): deserialising the cloud (the same in all), the tf filter, the conversion and
-publishing. Its CPU, read per thread from /proc/<pid>/task/<pid>/schedstat, is the second,
-steadier figure.
+that tells the nodes apart runs in one work thread (the main thread of the standalone nodes, a
+nodelet worker thread of the per-point node, which like pointcloud_to_laserscan_node loads its
+nodelet in-process): deserialising the cloud (the same in all), the tf filter, the conversion
+and publishing. Its CPU, read per thread from /proc/<pid>/task/<tid>/schedstat (the node's
+busiest thread in the window), is the second, steadier figure.
 
 pointcloud_to_laserscan is not packaged in Debian 12 and is not built here: the per-point node
-is a faithful stand-in for its per-cloud work (tf filter, the whole cloud transformed with
-tf2_sensor_msgs, then hypot and atan2 per point), so the ratio is an estimate, not a
-measurement of that node.
+is a stand-in that pays its per-cloud costs (nodelet hand-over, tf filter, the whole cloud
+transformed with tf2_sensor_msgs into a new cloud, then hypot, atan2 and a debug log check per
+point), so the ratio is an estimate, not a measurement of that node.
+
+Its cost depends on the C library: after each cloud glibc may return the two freed cloud-sized
+buffers (the received and the transformed cloud) to the kernel, and the next cloud then faults
+in and zeroes about 400 fresh pages. The per-point node runs twice: with glibc's defaults (as
+that node would run) and with glibc told to keep freed memory (GLIBC_TUNABLES), its best case.
+The page faults per cloud column shows which happened.
 
 Run after sourcing the build's devel/setup.bash (the reference node is built with the tests):
 
@@ -51,12 +58,18 @@ NODES = {
     "converter_glue": ("depth_filter_scan_converter_node", ["_row_stride:=1000000", "_column_stride:=1000000"]),
     "converter": ("depth_filter_scan_converter_node", []),
     "per_point": ("per_point_reference_node", ["_mode:=per_point"]),
+    "per_point_kept": ("per_point_reference_node", ["_mode:=per_point"]),
 }
+# The per-point node's best case: glibc never returns freed memory to the kernel (no trimming, no
+# mmap for large blocks), so the buffers of one cloud serve the next.
+KEEP_FREED_MEMORY = "glibc.malloc.trim_threshold=4294967295:glibc.malloc.mmap_threshold=33554432"
+ENV = {"per_point_kept": {"GLIBC_TUNABLES": KEEP_FREED_MEMORY}}
 LABELS = {
     "transport": "transport baseline: receive the cloud, publish an empty 1441-beam scan",
     "converter_glue": "depth_filter_scan_converter_node reading one point per cloud (its glue)",
     "converter": "depth_filter_scan_converter_node",
-    "per_point": "per-point node (pointcloud_to_laserscan's algorithm, re-implemented)",
+    "per_point": "per-point node (pointcloud_to_laserscan's work and structure, re-implemented)",
+    "per_point_kept": "the same, glibc keeping freed memory (its best case)",
 }
 
 
@@ -64,21 +77,38 @@ IDLE_S = 3.0  # s of no cloud before the feed, for each node's idle CPU
 RATE_HZ = 10
 
 
+def minor_faults(pid):
+    """Minor page faults of the process so far (/proc/<pid>/stat field 10): each one maps a fresh
+    page, which the kernel zeroes first."""
+    with open("/proc/%d/stat" % pid) as f:
+        return int(f.read().rsplit(")", 1)[1].split()[7])
+
+
 def read_cpu(nodes):
-    """{kind: (CPU seconds of the whole node, of its spinner thread)}: the standalone nodes spin in
-    their main thread, whose id is the pid."""
-    return {kind: (process_cpu_s(p.pid), thread_cpu_s(p.pid, p.pid)) for kind, p in nodes.items()}
+    """{kind: (CPU seconds of the whole node, {thread id: CPU seconds of that thread}, minor page
+    faults)}."""
+    return {kind: (process_cpu_s(p.pid), {int(tid): thread_cpu_s(p.pid, int(tid))
+                                          for tid in os.listdir("/proc/%d/task" % p.pid)}, minor_faults(p.pid))
+            for kind, p in nodes.items()}
+
+
+def work_thread_cpu_s(before, after):
+    """CPU seconds of the thread that spent the most between two reads of one node's threads: the
+    one that takes each cloud from roscpp's queue and converts it (the main thread of a standalone
+    node, a worker thread of a nodelet loader)."""
+    return max(after[tid] - before[tid] for tid in after if tid in before)
 
 
 def run_round(clouds, tmp):
-    """Per node of NODES fed the same `clouds` clouds: (CPU seconds of the whole node, of its spinner
-    thread, idle CPU seconds per second); the scans each sent; the window's length in seconds."""
+    """Per node of NODES fed the same `clouds` clouds: (CPU seconds of the whole node, of its work
+    thread, idle CPU seconds per second, minor page faults); the scans each sent; the window's length
+    in seconds."""
     env, core = start_master(tmp, node_names=tuple(NODES))
     nodes, feed = {}, None
     try:
         for kind, (executable, params) in NODES.items():
             nodes[kind] = subprocess.Popen([node_binary(env, executable), "__name:=%s" % kind, "scan:=/scan_%s" % kind]
-                                           + params, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                                           + params, env=dict(env, **ENV.get(kind, {})), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         flag = os.path.join(tmp, "go")
         feed = subprocess.Popen([sys.executable, "-c", FEED, str(clouds), flag, str(RATE_HZ),
                                  ",".join("/scan_%s" % kind for kind in NODES)], env=env, stdout=subprocess.PIPE,
@@ -94,9 +124,11 @@ def run_round(clouds, tmp):
         after = read_cpu(nodes)
         window = time.monotonic() - start
         os.remove(flag)
-        # per node: CPU seconds in the window (whole node, spinner thread), idle CPU seconds per second
-        cpu = {kind: (after[kind][0] - before[kind][0], after[kind][1] - before[kind][1],
-                      (before[kind][0] - quiet[kind][0]) / IDLE_S) for kind in NODES}
+        # per node: CPU seconds in the window (whole node, work thread), idle CPU seconds per second,
+        # page faults in the window
+        cpu = {kind: (after[kind][0] - before[kind][0], work_thread_cpu_s(before[kind][1], after[kind][1]),
+                      (before[kind][0] - quiet[kind][0]) / IDLE_S, after[kind][2] - before[kind][2])
+               for kind in NODES}
         return cpu, dict(zip(NODES, scans)), window
     finally:
         for p in [feed] + list(nodes.values()) + [core]:
@@ -114,28 +146,30 @@ def main():
         print("measure_node_cpu: --clouds and --repeat must be >= 1", file=sys.stderr)
         return 2
     tmp = tempfile.mkdtemp(prefix="node_cpu_")
-    # ms[view][kind]: per round, CPU per cloud: 0 the whole node, 1 its spinner thread, 2 the whole node
+    # ms[view][kind]: per round, CPU per cloud: 0 the whole node, 1 its work thread, 2 the whole node
     # without its idle CPU (what it spends per second with no cloud: tf polling, timers)
     ms = tuple({kind: [] for kind in NODES} for _ in range(3))
     idle = {kind: [] for kind in NODES}
+    faults = {kind: [] for kind in NODES}
     scans = {kind: 0 for kind in NODES}
     for r in range(args.repeat):
         cpu, sent, window = run_round(args.clouds, tmp)
         for kind in NODES:
-            node, spinner, idle_per_s = cpu[kind]
+            node, work, idle_per_s, window_faults = cpu[kind]
+            faults[kind].append(window_faults / args.clouds)
             ms[0][kind].append(1000.0 * node / args.clouds)
-            ms[1][kind].append(1000.0 * spinner / args.clouds)
+            ms[1][kind].append(1000.0 * work / args.clouds)
             ms[2][kind].append(1000.0 * (node - idle_per_s * window) / args.clouds)
             idle[kind].append(1000.0 * idle_per_s)
             scans[kind] += sent[kind]
-        print("round %d, CPU per cloud [ms], node / without idle / spinner thread: %s" % (r + 1, ", ".join(
+        print("round %d, CPU per cloud [ms], node / without idle / work thread: %s" % (r + 1, ", ".join(
             "%s %.3f / %.3f / %.3f" % (k, ms[0][k][-1], ms[2][k][-1], ms[1][k][-1]) for k in NODES)), file=sys.stderr)
 
     def above(view, kind):  # per round, both from the same round
         return [a - t for a, t in zip(ms[view][kind], ms[view]["transport"])]
 
-    def ratios(view):
-        return [p / c if c > 0 else float("nan") for p, c in zip(above(view, "per_point"), above(view, "converter"))]
+    def ratios(view, reference):
+        return [p / c if c > 0 else float("nan") for p, c in zip(above(view, reference), above(view, "converter"))]
 
     def cell(view, kind, relative):
         if relative and kind == "transport":
@@ -146,17 +180,19 @@ def main():
           "rounds of %d clouds:" % (RATE_HZ, args.repeat, args.clouds))
     print()
     print("| node | whole node [ms/cloud] | idle [ms/s] | without idle [ms/cloud] | above transport [ms] "
-          "| spinner thread [ms/cloud] | above transport [ms] | scans / clouds |")
-    print("|---|---|---|---|---|---|---|---|")
+          "| work thread [ms/cloud] | above transport [ms] | page faults / cloud | scans / clouds |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for kind in NODES:
-        print("| %s | %s | %.2f | %s | %s | %s | %s | %d / %d |" % (
+        print("| %s | %s | %.2f | %s | %s | %s | %s | %.0f | %d / %d |" % (
             LABELS[kind], cell(0, kind, False), statistics.median(idle[kind]), cell(2, kind, False),
-            cell(2, kind, True), cell(1, kind, False), cell(1, kind, True), scans[kind], args.clouds * args.repeat))
+            cell(2, kind, True), cell(1, kind, False), cell(1, kind, True), statistics.median(faults[kind]),
+            scans[kind], args.clouds * args.repeat))
     print()
-    for view, what in ((0, "whole node"), (2, "whole node without idle"), (1, "spinner thread")):
-        r = ratios(view)
-        print("per-point node / converter node, above transport, %s: %.1fx (rounds: %s)"
-              % (what, statistics.median(r), ", ".join("%.1fx" % x for x in r)))
+    for reference, name in (("per_point", "per-point node"), ("per_point_kept", "per-point node keeping memory")):
+        for view, what in ((0, "whole node"), (2, "whole node without idle"), (1, "work thread")):
+            r = ratios(view, reference)
+            print("%s / converter node, above transport, %s: %.1fx (rounds: %s)"
+                  % (name, what, statistics.median(r), ", ".join("%.1fx" % x for x in r)))
     return 0 if all(scans[k] > 0 for k in NODES) else 3
 
 if __name__ == "__main__":

@@ -72,7 +72,12 @@ def test_measure_node_cpu_runs():
     out = subprocess.run([sys.executable, os.path.join(PKG, "bench", "measure_node_cpu.py"), "--clouds", "3",
                           "--repeat", "1"], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-3000:]
-    for row in ("transport baseline", "depth_filter_scan_converter_node", "per-point node"):
+    for row in ("transport baseline", "depth_filter_scan_converter_node", "per-point node", "the same, glibc keeping"):
         assert "| %s" % row in out.stdout
-    for view in ("whole node", "whole node without idle", "spinner thread"):
-        assert "per-point node / converter node, above transport, %s:" % view in out.stdout
+    for reference in ("per-point node", "per-point node keeping memory"):
+        for view in ("whole node", "whole node without idle", "work thread"):
+            assert "%s / converter node, above transport, %s:" % (reference, view) in out.stdout
+    # Every node took every cloud, and each row has its page faults per cloud.
+    rows = [line.split("|") for line in out.stdout.splitlines() if line.startswith("| ") and "/ 3 |" in line]
+    assert len(rows) == 5, out.stdout
+    assert all(row[-2].strip() == "3 / 3" and float(row[-3]) >= 0 for row in rows), out.stdout
