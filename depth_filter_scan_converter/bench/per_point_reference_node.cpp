@@ -98,12 +98,12 @@ private:
     settings_ = std::make_unique<ScanSettings>(getPrivateNodeHandle());
     buffer_ = std::make_unique<tf2_ros::Buffer>();
     listener_ = std::make_unique<tf2_ros::TransformListener>(*buffer_);
-    filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>>(
-      cloud_sub_, *buffer_, settings_->frame, settings_->queue_size, nh_);
+    filter_ = std::make_unique<tf2_ros::MessageFilter<sensor_msgs::PointCloud2>>(cloud_sub_, *buffer_, settings_->frame,
+                                                                                 settings_->queue_size, nh_);
     filter_->registerCallback(&PerPointNodelet::cloudIn, this);
-    scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 10, [this](const ros::SingleSubscriberPublisher&) {
-      connectionChanged();
-    }, [this](const ros::SingleSubscriberPublisher&) { connectionChanged(); });
+    scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>(
+      "scan", 10, [this](const ros::SingleSubscriberPublisher&) { connectionChanged(); },
+      [this](const ros::SingleSubscriberPublisher&) { connectionChanged(); });
   }
 
   // Subscribes to clouds while the scan has a subscriber.
