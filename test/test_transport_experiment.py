@@ -1,32 +1,22 @@
-"""transport_experiment: process names, result table, CLI usage errors (the process-tree CPU
-accounting it uses is tested in test_cpu_accounting.py). No timing assertions."""
+"""transport_experiment: loader clients' CPU, result table, CLI usage errors (the process-tree CPU
+accounting it uses is tested in test_cpu_accounting.py, process names in test_rosrun.py). No
+timing assertions."""
 import math
 import os
 import subprocess
 import sys
 
-import psutil
 import pytest
 
 SCRIPTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts")
 sys.path.insert(0, SCRIPTS)
 from laserscan_toolbox.experiments import transport as te  # noqa: E402
-
-
-def test_processes_are_named_like_ros_nodes():
-    p = subprocess.Popen([sys.executable, "-c", "import sys; print(); sys.stdin.read()",
-                          "__name:=worker"], stdin=subprocess.PIPE, stdout=subprocess.PIPE)
-    try:
-        p.stdout.readline()  # running: its command line is set (not yet right after a vfork)
-        assert te._proc_name(psutil.Process(p.pid)) == "worker"  # from __name:=
-    finally:
-        p.stdin.close()
-        p.wait(30)
+from laserscan_toolbox.ros.rosrun import LOADER_TAG, MANAGER_TAG  # noqa: E402
 
 
 def test_nodelet_loader_clients_cpu_is_summed():
-    per_process = {"mgr (manager)[1]": 2.0, "cam" + te.LOADER_TAG + "[2]": 0.25,
-                   "conv" + te.LOADER_TAG + "[3]": 0.0, "loader_like[4]": 1.0}
+    per_process = {"mgr" + MANAGER_TAG + "[1]": 2.0, "cam" + LOADER_TAG + "[2]": 0.25,
+                   "conv" + LOADER_TAG + "[3]": 0.0, "loader_like[4]": 1.0}
     assert te.loader_cpu_s(per_process) == pytest.approx(0.25)
 
 

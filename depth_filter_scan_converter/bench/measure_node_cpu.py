@@ -108,7 +108,8 @@ def run_round(clouds, tmp):
     try:
         for kind, (executable, params) in NODES.items():
             nodes[kind] = subprocess.Popen([node_binary(env, executable), "__name:=%s" % kind, "scan:=/scan_%s" % kind]
-                                           + params, env=dict(env, **ENV.get(kind, {})), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                                           + params, env=dict(env, **ENV.get(kind, {})), stdout=subprocess.DEVNULL,
+                                           stderr=subprocess.DEVNULL)
         flag = os.path.join(tmp, "go")
         feed = subprocess.Popen([sys.executable, "-c", FEED, str(clouds), flag, str(RATE_HZ),
                                  ",".join("/scan_%s" % kind for kind in NODES)], env=env, stdout=subprocess.PIPE,

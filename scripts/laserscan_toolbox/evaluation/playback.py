@@ -200,12 +200,7 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
             c["cpu_percent_wall"] = c["cpu_percent"]
             c["cpu_percent"] = 100.0 * c["cpu_seconds"] / data_s
         rec.close()
-        # roslaunch outlives a node that is not required: its log says whether one died
-        with open(launch.log_path, errors="replace") as f:
-            died = [l for l in f if "has died" in l or "terminate called" in l or "what()" in l]
-        if launch.proc.poll() is not None or died:
-            raise RunError("the pipeline stopped during playback:\n%s%s"
-                           % ("".join(died), log_tail(launch.log_path)))
+        launch.raise_if_stopped()
         return {"outputs": outputs, "publishers": pubs, "records": rec.data, "cpu": cpu_res,
                 "static_tf": list(rec.static_tf.values()),
                 "consumer_cpu_percent": 100.0 * own_cpu / data_s,

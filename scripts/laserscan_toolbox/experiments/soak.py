@@ -185,7 +185,6 @@ def _rss_sample(procs):
 def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, camera_points=10000, seed=0,
         stall_s=1.0, launch_file=DEFAULT_LAUNCH, log=print):
     from .cpu import simulate
-    from .transport import _proc_name
     os.makedirs(outdir, exist_ok=True)
     load0 = os.getloadavg()
     with Session() as session:
@@ -212,7 +211,7 @@ def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, ca
             while True:
                 now = time.time()
                 if now >= next_sample:
-                    procs = [(_proc_name(p), p) for p in tree_processes(launch.proc.pid)]
+                    procs = launch.processes()
                     for name, value in _rss_sample(procs).items():
                         rss.setdefault(name, []).append((round(now - start, 3), value))
                     log("  %4.0f s: RSS total %.1f MB, %s" % (

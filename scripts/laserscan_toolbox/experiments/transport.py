@@ -17,35 +17,12 @@ import time
 
 from ..evaluation.report import fmt, table, write_json
 from ..ros.cpu_accounting import snapshot, spent, tree_processes
-from ..ros.rosrun import (REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name,
-                          wait_connected)
+from ..ros.rosrun import (LOADER_TAG, REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name,
+                          process_name, wait_connected)
 
 MODES = ("manager", "standalone")
 OUTPUT_TOPICS = ("/merged_scan", "/lidar_scan")
-LOADER_TAG = " (loader)"
 DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
-
-
-# ---------------------------------------------------------------- process names (pure)
-
-def _proc_name(p):
-    try:
-        cmd = p.cmdline()
-    except Exception:
-        return str(p.pid)
-    name = next((a.split(":=", 1)[1] for a in cmd if a.startswith("__name:=")), None)
-    if name is None and cmd:
-        name = os.path.basename(cmd[1] if len(cmd) > 1 and "python" in cmd[0] else cmd[0])
-    name = name or str(p.pid)
-    if len(cmd) > 1 and os.path.basename(cmd[0]) == "nodelet":
-        # "nodelet load ..." is only a client that asks the manager to load the nodelet and
-        # then idles; it is a process of the deployment all the same, so it is counted,
-        # but tagged so its share can be reported on its own
-        if cmd[1] == "load":
-            name += LOADER_TAG
-        elif cmd[1] == "manager":
-            name += " (manager)"
-    return name
 
 
 def loader_cpu_s(per_process):
@@ -123,7 +100,7 @@ def measure(session, bag, mode, launch_file, launch_args, label, tail=0.5):
             raise RunError("%s: could not connect to %s" % (mode, ", ".join(OUTPUT_TOPICS)))
         procs = tree_processes(launch.proc.pid)
         player = BagPlayer(bag, os.path.join(wd, label + "_play.log"))
-        before = snapshot(procs, _proc_name)
+        before = snapshot(procs, process_name)
         t0 = time.time()
         n0 = dict(rec.count)
         player.start()
@@ -131,15 +108,13 @@ def measure(session, bag, mode, launch_file, launch_args, label, tail=0.5):
             time.sleep(0.1)
         time.sleep(tail)  # the last inputs' outputs are still on their way
         # re-list the tree: a node respawned during the window would be counted from 0
-        after = snapshot(tree_processes(launch.proc.pid), _proc_name)
+        after = snapshot(tree_processes(launch.proc.pid), process_name)
         window = time.time() - t0
         counts = {t: rec.count[t] - n0[t] for t in OUTPUT_TOPICS}
         if player.proc.returncode != 0:
             raise RunError("rosbag play failed (status %s):\n%s"
                            % (player.proc.returncode, log_tail(player.log_path)))
-        if launch.proc.poll() is not None:
-            raise RunError("%s: the pipeline stopped during playback:\n%s"
-                           % (mode, log_tail(launch.log_path)))
+        launch.raise_if_stopped("%s: the pipeline" % mode)
         d = spent(before, after)
         if counts["/merged_scan"] == 0:
             raise RunError("%s: no /merged_scan during playback:\n%s"

@@ -25,6 +25,31 @@ class RunError(Exception):
     """The pipeline could not be run (launch failed, master did not start, ...)."""
 
 
+# Tags of the nodelet processes in reports: a manager, and a loader client ("nodelet load" only
+# asks the manager to load a nodelet and then idles: a process of the deployment all the same,
+# counted, but tagged so that its share can be reported on its own).
+MANAGER_TAG = " (manager)"
+LOADER_TAG = " (loader)"
+
+
+def process_name(p):
+    """How reports name a process (psutil.Process) of a launch: its ROS node name (__name:=),
+    else its program's; nodelet managers and loader clients tagged. Its pid if it is gone."""
+    import psutil
+    try:
+        cmd = p.cmdline()
+    except psutil.Error:
+        return str(p.pid)
+    if not cmd:
+        return str(p.pid)
+    name = next((a.split(":=", 1)[1] for a in cmd if a.startswith("__name:=")), None)
+    if name is None:
+        name = os.path.basename(cmd[1] if len(cmd) > 1 and "python" in cmd[0] else cmd[0])
+    if len(cmd) > 1 and os.path.basename(cmd[0]) == "nodelet":
+        name += {"manager": MANAGER_TAG, "load": LOADER_TAG}.get(cmd[1], "")
+    return name
+
+
 def free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -201,22 +226,16 @@ class Launch:
             time.sleep(0.25)
 
     def processes(self):
-        """(name, psutil.Process) of every process the launch started."""
-        import psutil
-        out = []
-        for p in cpu_accounting.tree_processes(self.proc.pid):
-            try:
-                cmd = p.cmdline()
-            except psutil.Error:
-                continue
-            name = next((a.split(":=", 1)[1] for a in cmd if a.startswith("__name:=")), None)
-            if name is None:
-                name = os.path.basename(cmd[1] if len(cmd) > 1 and "python" in cmd[0]
-                                        else cmd[0]) if cmd else str(p.pid)
-            if "nodelet" in " ".join(cmd[:2]) and "manager" in cmd:
-                name += " (nodelet manager)"
-            out.append((name, p))
-        return out
+        """(name, psutil.Process) of every process the launch started, named by process_name."""
+        return [(process_name(p), p) for p in cpu_accounting.tree_processes(self.proc.pid)]
+
+    def raise_if_stopped(self, what="the pipeline"):
+        """RunError naming what died if roslaunch has ended or its log says that a node died:
+        roslaunch outlives a node that is not required."""
+        with open(self.log_path, errors="replace") as f:
+            died = [l for l in f if "has died" in l or "terminate called" in l or "what()" in l]
+        if self.proc.poll() is not None or died:
+            raise RunError("%s stopped during playback:\n%s%s" % (what, "".join(died), log_tail(self.log_path)))
 
     def stop(self):
         stop_process(self.proc)

@@ -1,0 +1,93 @@
+"""ros/rosrun.py without a ROS master: how reports name a launch's processes, and the check that
+no node of a launch died (roslaunch outlives a node that is not required)."""
+import os
+import subprocess
+import sys
+
+import psutil
+import pytest
+
+SCRIPTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts")
+sys.path.insert(0, SCRIPTS)
+from laserscan_toolbox.ros import rosrun  # noqa: E402
+
+
+class FakeProcess:
+    """What process_name reads of a psutil.Process: its pid and command line."""
+
+    def __init__(self, cmd, pid=4242):
+        self.pid, self._cmd = pid, cmd
+
+    def cmdline(self):
+        if self._cmd is None:
+            raise psutil.NoSuchProcess(self.pid)
+        return self._cmd
+
+
+@pytest.mark.parametrize("cmd, name", [
+    (["/usr/lib/nodelet/nodelet", "manager", "__name:=pipeline_manager", "__log:=x.log"],
+     "pipeline_manager (manager)"),
+    (["/usr/lib/nodelet/nodelet", "load", "depth_filter_scan_converter/DepthFilterScanConverterNodelet",
+      "pipeline_manager", "__name:=camera_converter"], "camera_converter (loader)"),
+    (["/usr/lib/nodelet/nodelet", "standalone", "pkg/Type", "__name:=alone"], "alone"),
+    (["/work/build/devel/lib/multi_laserscan_merger/multi_laserscan_merger_node", "__name:=merger"], "merger"),
+    (["/usr/bin/python3", "/work/scripts/scan_relay", "in:=a"], "scan_relay"),
+    (["/opt/bin/some_tool", "--flag"], "some_tool"),
+    ([], "4242"),
+    (None, "4242"),  # gone before its command line was read
+])
+def test_processes_are_named_like_ros_nodes(cmd, name):
+    assert rosrun.process_name(FakeProcess(cmd)) == name
+
+
+def test_a_running_process_is_named_from_its_command_line():
+    p = subprocess.Popen([sys.executable, "-c", "import sys; print(); sys.stdin.read()", "__name:=worker"],
+                         stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+    try:
+        p.stdout.readline()  # running: its command line is set (not yet right after a vfork)
+        assert rosrun.process_name(psutil.Process(p.pid)) == "worker"
+    finally:
+        p.stdin.close()
+        p.wait(30)
+
+
+def _launch_with(tmp_path, log_lines, running):
+    """A Launch whose roslaunch is a sleeping (or an ended) process and whose log holds log_lines."""
+    launch = rosrun.Launch(os.path.join(rosrun.REPO, "launch", "pipeline.launch"), [], str(tmp_path / "roslaunch.log"))
+    (tmp_path / "roslaunch.log").write_text("".join(line + "\n" for line in log_lines))
+    launch.proc = subprocess.Popen(["sleep", "30" if running else "0"])
+    if not running:
+        launch.proc.wait(30)
+    return launch
+
+
+def test_a_launch_whose_nodes_all_run_passes(tmp_path):
+    launch = _launch_with(tmp_path, ["started roslaunch server", "process[merger-2]: started with pid [7]"], True)
+    try:
+        launch.raise_if_stopped()
+    finally:
+        launch.proc.kill()
+        launch.proc.wait(30)
+
+
+@pytest.mark.parametrize("line", [
+    "[camera_converter-4] process has died [pid 81, exit code -11, cmd ...]",
+    "terminate called after throwing an instance of 'std::runtime_error'",
+    "  what():  bad cloud",
+])
+def test_a_dead_node_is_named(tmp_path, line):
+    launch = _launch_with(tmp_path, ["process[merger-2]: started with pid [7]", line], True)
+    try:
+        with pytest.raises(rosrun.RunError) as e:
+            launch.raise_if_stopped("manager mode: the pipeline")
+        assert str(e.value).startswith("manager mode: the pipeline stopped during playback")
+        assert line in str(e.value)
+    finally:
+        launch.proc.kill()
+        launch.proc.wait(30)
+
+
+def test_an_ended_roslaunch_is_reported(tmp_path):
+    launch = _launch_with(tmp_path, ["shutting down processing monitor..."], False)
+    with pytest.raises(rosrun.RunError, match="the pipeline stopped during playback"):
+        launch.raise_if_stopped()
