@@ -242,6 +242,29 @@ def test_results_json_and_demo_summary_link_each_section_once(tmp_path):
     assert md.count("(cpu/cpu_experiment.md)") == 1 and md.count("(rviz.png)") == 1
 
 
+def test_cpu_experiment_counts_the_managers_cpu_by_the_process_names():
+    """The CPU experiment's manager figure takes the processes that process_name tags as
+    managers, not the loader clients or other nodes, on the names of a real run's launch."""
+    from laserscan_toolbox.experiments import cpu
+    from laserscan_toolbox.ros.rosrun import process_name
+
+    class Proc:
+        def __init__(self, *cmd):
+            self.pid, self._cmd = 1, list(cmd)
+
+        def cmdline(self):
+            return self._cmd
+
+    nodelet = "/usr/lib/nodelet/nodelet"
+    names = [process_name(Proc(nodelet, "manager", "__name:=pipeline_manager")),
+             process_name(Proc(nodelet, "load", "multi_laserscan_merger/MultiLaserScanMergerNodelet",
+                               "pipeline_manager", "__name:=merged_scan_merger")),
+             process_name(Proc("/usr/bin/python3", "/opt/ros/lib/tf2_ros/static_transform_publisher"))]
+    figures = dict(zip(names, ({"cpu_percent": 8.5}, {"cpu_percent": 0.5}, {"cpu_percent": 0.25})))
+    assert cpu.manager_cpu_percent(figures) == pytest.approx(8.5)
+    assert cpu.manager_cpu_percent({}) == 0
+
+
 def test_input_stats_rate_from_stamps_else_rosbag_frequency():
     topics = {"/scan": {"type": "sensor_msgs/LaserScan", "count": 5, "frequency": 3.0,
                         "stamps": [0.0, 0.1, 0.2, 0.3, 0.4], "bytes": 1000,

@@ -24,7 +24,7 @@ import numpy as np
 from ..evaluation import metrics
 from ..evaluation.playback import DEFAULT_LAUNCH, inspect_bag, run_pipeline
 from ..evaluation.report import fmt, table, write_json
-from ..ros.rosrun import REPO, RunError, Session
+from ..ros.rosrun import MANAGER_TAG, REPO, RunError, Session
 
 POINTS = (10000, 50000, 100000, 200000, 300000)
 QUICK_POINTS = (10000, 100000, 300000)
@@ -38,6 +38,12 @@ def simulate(path, duration, points, seed=0):
     if p.returncode != 0:
         raise RunError("simulate_scenario failed: %s" % (p.stderr[-2000:] or p.stdout[-2000:]))
     return path
+
+
+def manager_cpu_percent(cpu):
+    """CPU (% of one core) of the nodelet managers among a run's figures per process (named by
+    rosrun.process_name): the work of every nodelet, without the idle loader clients."""
+    return sum(c["cpu_percent"] for name, c in cpu.items() if name.endswith(MANAGER_TAG))
 
 
 def measure(session, bag, launch, launch_args, consumer, merged_topic):
@@ -69,8 +75,7 @@ def measure(session, bag, launch, launch_args, consumer, merged_topic):
                 out["topics"][t] = {"messages": v["count"], "bytes_per_s": v["bytes"] / dur,
                                     "rate_hz": metrics.rate_stats(v["stamps"])["rate"]}
                 out["bytes_per_s"] += v["bytes"] / dur
-    out["manager_cpu_percent"] = sum(c["cpu_percent"] for n, c in run["cpu"].items()
-                                     if "nodelet manager" in n)
+    out["manager_cpu_percent"] = manager_cpu_percent(run["cpu"])
     out["all_cpu_percent"] = sum(c["cpu_percent"] for c in run["cpu"].values())
     out["cpu"] = run["cpu"]
     return out
