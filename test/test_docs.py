@@ -77,7 +77,7 @@ COMMANDS = {
     "/usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cost.py --rate 3": CHECKED,
     "/usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cost.py --rate 3 --executable "
     "per_point_reference_node _mode:=per_point": CHECKED,
-    "/usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cpu.py --clouds 100 --repeat 5":
+    "/usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cpu.py --clouds 100 --repeat 9":
     "depth_filter_scan_converter/test/test_per_point_reference.py",
     "/usr/bin/python3 multi_laserscan_merger/bench/measure_node_cost.py --seconds 20": CHECKED,
     "cmake --build build --target depth_filter_scan_converter_benchmark": CHECKED,

@@ -1,12 +1,12 @@
 #!/usr/bin/python3
-"""CPU per cloud of the converter node against a per-point node (pointcloud_to_laserscan's
-algorithm, re-implemented: bench/per_point_reference_node.cpp), both above the same transport
+"""CPU per cloud of the converter node against a per-point node (pointcloud_to_laserscan's work
+and structure, re-implemented: bench/per_point_reference_node.cpp), both above the same transport
 baseline (a node that receives each cloud and publishes one empty 1441-beam scan), issue 9 part 3.
 
-A fourth node, the converter reading one point per cloud (row and column strides beyond the
+Another node, the converter reading one point per cloud (row and column strides beyond the
 cloud), shows what its glue (tf filter, tf, scan, diagnostics, threads) costs in CPU time.
 
-All four nodes run at once on one roscore (shipped parameters, the same YAML for all), each
+All five nodes run at once on one roscore (shipped parameters, the same YAML for all), each
 subscribed to the same clouds and publishing its own scan topic; measure_node_cost.py's feeder
 publishes N organized 320 x 163 clouds (52,160 points of 16 bytes) at 10 Hz over TCP. Each node's
 CPU (all its threads, in ns: the toolbox's ros/cpu_accounting.py) from the first cloud until a
@@ -17,11 +17,11 @@ round, `--repeat` rounds (fresh processes each), and the median and range are re
 The whole node's CPU includes roscpp's network thread reading the 834 kB cloud from its socket,
 in however many reads the data happens to arrive: that alone moves the transport baseline by
 about 0.1 ms per cloud from round to round, as much as the converter's whole core. The work
-that tells the nodes apart runs in one work thread (the main thread of the standalone nodes, a
+that tells the nodes apart runs in one work thread: deserialising the cloud (the same in all),
+the tf filter, the conversion and publishing. That is the main thread of the plain nodes, and a
 nodelet worker thread of the per-point node, which like pointcloud_to_laserscan_node loads its
-nodelet in-process): deserialising the cloud (the same in all), the tf filter, the conversion
-and publishing. Its CPU, read per thread from /proc/<pid>/task/<tid>/schedstat (the node's
-busiest thread in the window), is the second, steadier figure.
+nodelet in-process (its busiest thread other than the main one). Its CPU, read per thread from
+/proc/<pid>/task/<tid>/schedstat, is the second, steadier figure.
 
 pointcloud_to_laserscan is not packaged in Debian 12 and is not built here: the per-point node
 is a stand-in that pays its per-cloud costs (nodelet hand-over, tf filter, the whole cloud
@@ -30,9 +30,9 @@ point), so the ratio is an estimate, not a measurement of that node.
 
 Its cost depends on the C library: after each cloud glibc may return the two freed cloud-sized
 buffers (the received and the transformed cloud) to the kernel, and the next cloud then faults
-in and zeroes about 400 fresh pages. The per-point node runs twice: with glibc's defaults (as
-that node would run) and with glibc told to keep freed memory (GLIBC_TUNABLES), its best case.
-The page faults per cloud column shows which happened.
+in and zeroes about 400 fresh pages (2 x 834 kB). The per-point node runs twice: with glibc's
+defaults (as that node would run) and with glibc told to keep freed memory (GLIBC_TUNABLES), its
+best case. The page faults per cloud (per round on stderr) show which happened.
 
 Run after sourcing the build's devel/setup.bash (the reference node is built with the tests):
 
@@ -45,6 +45,8 @@ import subprocess
 import sys
 import tempfile
 import time
+
+import psutil
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
@@ -60,6 +62,8 @@ NODES = {
     "per_point": ("per_point_reference_node", ["_mode:=per_point"]),
     "per_point_kept": ("per_point_reference_node", ["_mode:=per_point"]),
 }
+# Nodes whose clouds are converted on a nodelet worker thread, not in the main thread.
+IN_LOADER = ("per_point", "per_point_kept")
 # The per-point node's best case: glibc never returns freed memory to the kernel (no trimming, no
 # mmap for large blocks), so the buffers of one cloud serve the next.
 KEEP_FREED_MEMORY = "glibc.malloc.trim_threshold=4294967295:glibc.malloc.mmap_threshold=33554432"
@@ -78,25 +82,36 @@ RATE_HZ = 10
 
 
 def minor_faults(pid):
-    """Minor page faults of the process so far (/proc/<pid>/stat field 10): each one maps a fresh
-    page, which the kernel zeroes first."""
+    """Minor page faults of the process so far (/proc/<pid>/stat field 10): here mostly fresh
+    anonymous pages, which the kernel zeroes first."""
     with open("/proc/%d/stat" % pid) as f:
         return int(f.read().rsplit(")", 1)[1].split()[7])
+
+
+def thread_cpus(pid):
+    """{thread id: CPU seconds} of the process's threads (one that ends meanwhile is left out)."""
+    out = {}
+    for tid in os.listdir("/proc/%d/task" % pid):
+        try:
+            out[int(tid)] = thread_cpu_s(pid, int(tid))
+        except psutil.NoSuchProcess:
+            pass
+    return out
 
 
 def read_cpu(nodes):
     """{kind: (CPU seconds of the whole node, {thread id: CPU seconds of that thread}, minor page
     faults)}."""
-    return {kind: (process_cpu_s(p.pid), {int(tid): thread_cpu_s(p.pid, int(tid))
-                                          for tid in os.listdir("/proc/%d/task" % p.pid)}, minor_faults(p.pid))
-            for kind, p in nodes.items()}
+    return {kind: (process_cpu_s(p.pid), thread_cpus(p.pid), minor_faults(p.pid)) for kind, p in nodes.items()}
 
 
-def work_thread_cpu_s(before, after):
-    """CPU seconds of the thread that spent the most between two reads of one node's threads: the
-    one that takes each cloud from roscpp's queue and converts it (the main thread of a standalone
-    node, a worker thread of a nodelet loader)."""
-    return max(after[tid] - before[tid] for tid in after if tid in before)
+def work_thread_cpu_s(kind, pid, before, after):
+    """CPU seconds between two reads of the node's thread that takes each cloud from roscpp's queue
+    and converts it: the main thread of a plain node; in a nodelet loader the busiest other
+    thread."""
+    if kind not in IN_LOADER:
+        return after[pid] - before[pid]
+    return max(after[tid] - before[tid] for tid in after if tid in before and tid != pid)
 
 
 def run_round(clouds, tmp):
@@ -127,7 +142,8 @@ def run_round(clouds, tmp):
         os.remove(flag)
         # per node: CPU seconds in the window (whole node, work thread), idle CPU seconds per second,
         # page faults in the window
-        cpu = {kind: (after[kind][0] - before[kind][0], work_thread_cpu_s(before[kind][1], after[kind][1]),
+        cpu = {kind: (after[kind][0] - before[kind][0],
+                      work_thread_cpu_s(kind, nodes[kind].pid, before[kind][1], after[kind][1]),
                       (before[kind][0] - quiet[kind][0]) / IDLE_S, after[kind][2] - before[kind][2])
                for kind in NODES}
         return cpu, dict(zip(NODES, scans)), window
@@ -163,8 +179,10 @@ def main():
             ms[2][kind].append(1000.0 * (node - idle_per_s * window) / args.clouds)
             idle[kind].append(1000.0 * idle_per_s)
             scans[kind] += sent[kind]
-        print("round %d, CPU per cloud [ms], node / without idle / work thread: %s" % (r + 1, ", ".join(
-            "%s %.3f / %.3f / %.3f" % (k, ms[0][k][-1], ms[2][k][-1], ms[1][k][-1]) for k in NODES)), file=sys.stderr)
+        figures = ["%s %.3f / %.3f / %.3f, %.0f" % (k, ms[0][k][-1], ms[2][k][-1], ms[1][k][-1], faults[k][-1])
+                   for k in NODES]
+        print("round %d, CPU per cloud [ms], node / without idle / work thread, page faults per cloud: %s"
+              % (r + 1, ", ".join(figures)), file=sys.stderr)
 
     def above(view, kind):  # per round, both from the same round
         return [a - t for a, t in zip(ms[view][kind], ms[view]["transport"])]
@@ -192,7 +210,7 @@ def main():
     for reference, name in (("per_point", "per-point node"), ("per_point_kept", "per-point node keeping memory")):
         for view, what in ((0, "whole node"), (2, "whole node without idle"), (1, "work thread")):
             r = ratios(view, reference)
-            print("%s / converter node, above transport, %s: %.1fx (rounds: %s)"
+            print("%s / converter node, above transport, %s: %.1fx, the median of the rounds' ratios (rounds: %s)"
                   % (name, what, statistics.median(r), ", ".join("%.1fx" % x for x in r)))
     return 0 if all(scans[k] > 0 for k in NODES) else 3
 

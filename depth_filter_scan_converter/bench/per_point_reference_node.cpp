@@ -110,11 +110,12 @@ private:
   void connectionChanged()
   {
     std::lock_guard<std::mutex> lock(connect_mutex_);
-    if (scan_pub_.getNumSubscribers() > 0 && !subscribed_)
+    const bool wanted = scan_pub_.getNumSubscribers() > 0;  // read once: it may change meanwhile
+    if (wanted && !subscribed_)
       cloud_sub_.subscribe(nh_, "cloud_in", settings_->queue_size);
-    else if (scan_pub_.getNumSubscribers() == 0 && subscribed_)
+    else if (!wanted && subscribed_)
       cloud_sub_.unsubscribe();
-    subscribed_ = scan_pub_.getNumSubscribers() > 0;
+    subscribed_ = wanted;
   }
 
   // Allocates as that node does, in the same order (the scan's ranges, then the transformed cloud),
@@ -206,18 +207,21 @@ int main(int argc, char** argv)
   ros::NodeHandle nh, pnh("~");
   std::string mode = "per_point";
   pnh.param("mode", mode, mode);
-  const std::vector<std::string> no_args;
   if (mode == "per_point")
   {
     // As pointcloud_to_laserscan_node: the nodelet in a loader of its own, named as the node
-    // (so its private parameters are the node's), with the command line's remappings. Its
-    // callbacks run on the loader's worker threads.
+    // (so its private parameters are the node's), with the command line's remappings, its
+    // callbacks on the loader's worker threads (one per core), and a multi-threaded spinner (one
+    // thread per core) on the global queue. Built from a factory, this loader offers no
+    // load / unload services, which only idle in that node.
     const boost::function<boost::shared_ptr<nodelet::Nodelet>(const std::string&)> make_nodelet =
       [](const std::string&) { return boost::make_shared<PerPointNodelet>(); };
     nodelet::Loader loader(make_nodelet);
+    const std::vector<std::string> no_args;
     if (!loader.load(ros::this_node::getName(), "per_point", ros::names::getRemappings(), no_args))
       return 1;
-    ros::spin();
+    ros::MultiThreadedSpinner spinner;
+    spinner.spin();
     return 0;
   }
   if (mode != "transport")

@@ -17,7 +17,6 @@ import sys
 import time
 
 from ..evaluation.report import fmt, table, write_json
-from ..ros.cpu_accounting import tree_processes
 from ..ros.rosrun import (REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name,
                           wait_connected)
 

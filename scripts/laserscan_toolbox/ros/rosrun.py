@@ -45,6 +45,7 @@ def process_name(p):
     name = next((a.split(":=", 1)[1] for a in cmd if a.startswith("__name:=")), None)
     if name is None:
         name = os.path.basename(cmd[1] if len(cmd) > 1 and "python" in cmd[0] else cmd[0])
+    # A manager started behind a launch-prefix (nice, gdb) is named after that program, untagged.
     if len(cmd) > 1 and os.path.basename(cmd[0]) == "nodelet":
         name += {"manager": MANAGER_TAG, "load": LOADER_TAG}.get(cmd[1], "")
     return name
