@@ -231,8 +231,10 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   if (params_.publish_rate > 0.0)
     publish_timer_ = nh_.createTimer(ros::Duration(1.0 / params_.publish_rate),
                                      [this](const ros::TimerEvent& e) { timerCallback(e); });
-  // The updater publishes at its own period (1 s by default) when asked.
-  diagnostics_timer_ = nh_.createTimer(ros::Duration(0.5), [this](const ros::TimerEvent&) { updater_->update(); });
+  // Every second of wall time: the status goes on while a simulated clock stands still (a bag
+  // paused or ended), when the updater's own period, in ROS time, would stop it.
+  diagnostics_timer_ =
+    nh_.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { updater_->force_update(); });
   ROS_INFO("%s: merging %zu sources into '%s' on '%s' (%zu beams), publish_rate %.1f Hz, motion compensation %s",
            name_.c_str(), sources_.size(), params_.output.frame.c_str(), output_topic.c_str(), core_->beamCount(),
            params_.publish_rate, params_.odom_topic.empty() ? "off" : ("from '" + params_.odom_topic + "'").c_str());
@@ -641,6 +643,8 @@ void MultiLaserScanMergerRos::sourceDiagnostics(std::size_t i, diagnostic_update
   const std::size_t dropped_now = s.dropped - s.dropped_at_last_report;
   s.dropped_at_last_report = s.dropped;
   stat.add("topic", nh_.resolveName(sp.topic));
+  stat.add("merged scan topic", pub_.getTopic());  // which output these counts are about
+  stat.add("scans received", s.received);
   stat.add("rate (Hz)", rate);
   stat.add("age of last scan (s)", age);
   stat.add("timeout (s)", sp.timeout);

@@ -115,7 +115,8 @@ private:
 
   ros::Publisher pub_;
   ros::Subscriber odom_sub_;
-  ros::Timer publish_timer_, diagnostics_timer_;
+  ros::Timer publish_timer_;
+  ros::WallTimer diagnostics_timer_;
   std::unique_ptr<diagnostic_updater::Updater> updater_;
 };
 

@@ -230,6 +230,9 @@ class MergerTest(unittest.TestCase):
         self.assertEqual(others.level, DiagnosticStatus.OK)
         lidar = {v.key: v.value for v in others.values}
         self.assertGreater(float(lidar['rate (Hz)']), 4.0)  # published at 8 Hz
+        # The evaluation links a source's counts to the output they are about by this topic.
+        self.assertEqual(lidar['merged scan topic'], rospy.resolve_name('merged_scan'))
+        self.assertGreater(int(lidar['scans received']), 20)
         self.assertLess(float(lidar['rate (Hz)']), 12.0)
         self.assertLess(float(lidar['age of last scan (s)']), 0.5)
         self.assertEqual(int(lidar['transform failures']), 0)
