@@ -24,6 +24,42 @@ def test_dropped_inputs_are_found_by_stamp():
     assert d == {"/cam/depth": 0, "/lidar": 3}
 
 
+def test_a_mergers_own_counts_tell_dropped_inputs_from_inputs_merged_later():
+    """80 lidar scans reach the output under their own stamp, 20 do not. The merger's
+    diagnostics for the output say it received 98 and dropped 1: 2 never reached it, 1 it
+    dropped, 17 went into a later output. Another merger's statuses (another output), a
+    converter's status and unreadable counts change nothing; an input no merger reports on
+    keeps its count by stamp."""
+    lidar = np.arange(0.0, 10.0, 0.1)
+    cam = np.arange(0.05, 10.0, 0.1)
+    bag = {"/lidar": {"stamps": lidar.tolist()}, "/cam/depth": {"stamps": cam.tolist()}}
+    out = np.concatenate([lidar[:80], cam[:95]])
+    diagnostics = {
+        "/slam_merger: source lidar": {"topic": "/lidar", "merged scan topic": "/slam_scan",
+                                       "scans received": "98", "scans dropped": "1"},
+        "/lidar_merger: source lidar": {"topic": "/lidar", "merged scan topic": "/lidar_scan",
+                                        "scans received": "50", "scans dropped": "40"},
+        "/slam_merger: source broken": {"topic": "/other", "merged scan topic": "/slam_scan",
+                                        "scans received": "n/a", "scans dropped": "3"},
+        "/camera_converter: Input and processing": {"clouds received": "100"},
+    }
+    counts = analysis.merger_counts(diagnostics, "/slam_scan")
+    assert counts == {"/lidar": (98, 1)}
+    drivers = analysis.account_with_merger(analysis.match_inputs(out, bag), counts)
+    by_topic = {d["topic"]: d for d in drivers}
+    assert (by_topic["/lidar"]["dropped"], by_topic["/lidar"]["merged_later"]) == (3, 17)
+    assert by_topic["/cam/depth"]["dropped"] == 5 and "merged_later" not in by_topic["/cam/depth"]
+    # A merger that counts more losses than stamps are missing: the stamps bound the drops.
+    drivers = analysis.account_with_merger(analysis.match_inputs(out, bag), {"/lidar": (60, 0)})
+    assert [(d["dropped"], d["merged_later"]) for d in drivers if d["topic"] == "/lidar"] == [(20, 0)]
+    # The report says both.
+    from laserscan_toolbox.evaluation import report
+    cell = report.dropped_cell({"inputs": drivers, "dropped": 3, "dropped_fraction": 0.03, "merged_later": 17})
+    assert cell.startswith("3 (") and cell.endswith("; 17 merged into a later output"), cell
+    assert "merged" not in report.dropped_cell({"inputs": drivers, "dropped": 3, "dropped_fraction": 0.03})
+    assert report.dropped_cell({"inputs": [], "dropped": 0, "dropped_fraction": float("nan")}) == "n/a"
+
+
 def test_static_pose_chains_transforms():
     q_yaw = (0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4))  # 90 degrees
     tf = [("base_link", "mount", (1.0, 0.0, 0.2), q_yaw),

@@ -1,8 +1,10 @@
 """Figures of a recorded run (``playback.run_pipeline``) and its bag: no ROS node runs here.
 
 - per output: count, rate (from stamps), latency (receive /clock time minus stamp),
-  bytes/s, messages dropped (inputs whose stamp never came out, see ``match_inputs``),
-  delay after the input that carries the same stamp;
+  bytes/s, messages dropped (inputs whose stamp never came out, see ``match_inputs``; where a
+  merger's diagnostics report on the input, only those it never received or dropped, the rest
+  merged into a later output: ``account_with_merger``), delay after the input that carries the
+  same stamp;
 - with ground truth (the scenario of the bag's ``/scenario`` topic): range error against
   the ideal scan (median, p95), false and missed obstacles, coverage, glass found, per scan
   topic (``ground_truth_stats``, ``glass_stats``);
@@ -77,6 +79,39 @@ def match_inputs(out_stamps, bag_topics, min_matches=3):
     return drivers
 
 
+def merger_counts(diagnostics, output_topic):
+    """{input topic: (scans received, scans dropped)} that a merger counted for its sources merged
+    into output_topic (from the last values of its /diagnostics statuses: "topic", "merged scan
+    topic", "scans received", "scans dropped"). Empty for an output no merger reports on."""
+    counts = {}
+    for values in diagnostics.values():
+        if values.get("merged scan topic") != output_topic or "topic" not in values:
+            continue
+        try:
+            received, dropped = int(values["scans received"]), int(values["scans dropped"])
+        except (KeyError, ValueError):
+            continue
+        r, d = counts.get(values["topic"], (0, 0))
+        counts[values["topic"]] = (r + received, d + dropped)
+    return counts
+
+
+def account_with_merger(drivers, counts):
+    """Where the merger reports on a driver's topic (one of its sources), splits the inputs whose
+    stamp never reappears into those really dropped (never received by the merger, or dropped by
+    it: malformed, no transform) and those merged into a later output under a newer input's stamp
+    (a merger stamps its output with its newest input's time). Changes drivers in place."""
+    for drv in drivers:
+        if drv["topic"] not in counts:
+            continue
+        received, dropped = counts[drv["topic"]]
+        lost = max(drv["inputs"] - received, 0) + dropped
+        drv["merged_later"] = max(drv["dropped"] - lost, 0)
+        drv["dropped"] = min(drv["dropped"], lost)
+        drv["counted_by_merger"] = True
+    return drivers
+
+
 def delay_after_input(recv_sim, stamps, drivers, bag_topics):
     """Receipt time of each output minus the bag time of the input message that carries the
     same stamp: the pipeline's own delay, whatever clock stamped the input (a sensor clock
@@ -116,7 +151,8 @@ def output_stats(run, bag_info):
         rs = metrics.rate_stats(stamps)
         lat = metrics.latency_stats(recv, stamps)
         span = (max(d["recv_wall"]) - min(d["recv_wall"])) if len(d["recv_wall"]) > 1 else 0
-        drivers = match_inputs(stamps, bag_info["topics"])
+        drivers = account_with_merger(match_inputs(stamps, bag_info["topics"]),
+                                      merger_counts(run.get("diagnostics", {}), topic))
         delay = delay_after_input(recv, stamps, drivers, bag_info["topics"])
         dropped = sum(x["dropped"] for x in drivers)
         inputs = sum(x["inputs"] for x in drivers)
@@ -131,6 +167,7 @@ def output_stats(run, bag_info):
             "bytes_per_msg": float(np.mean(d["bytes"])) if d["bytes"] else 0.0,
             "bytes_per_s": float(np.sum(d["bytes"]) / bag_span) if bag_span > 0 else float("nan"),
             "inputs": drivers, "dropped": dropped,
+            "merged_later": sum(x.get("merged_later", 0) for x in drivers),
             "dropped_fraction": dropped / inputs if inputs else float("nan"),
             "coverage": _coverage(d["scans"]),
             "receive_span_wall_s": span,

@@ -97,6 +97,7 @@ class Recorder:
     def __init__(self, topics):
         import rospy
         from sensor_msgs.msg import LaserScan
+        from diagnostic_msgs.msg import DiagnosticArray
         from tf2_msgs.msg import TFMessage
         self._scan_cls = LaserScan
         self.data = {}
@@ -106,6 +107,13 @@ class Recorder:
         # Not in self.subs, whose connections wait_connected awaits: there may be none.
         self.static_tf = {}
         self._tf_sub = rospy.Subscriber("/tf_static", TFMessage, self._static_cb, queue_size=10)
+        # The nodes' own counts (a merger's drops per source): the last values of each status.
+        self.diagnostics = {}
+        self._diag_sub = rospy.Subscriber("/diagnostics", DiagnosticArray, self._diagnostics_cb, queue_size=50)
+
+    def _diagnostics_cb(self, msg):
+        for status in msg.status:
+            self.diagnostics[status.name] = {kv.key: kv.value for kv in status.values}
 
     def _static_cb(self, msg):
         for tr in msg.transforms:
@@ -141,7 +149,7 @@ class Recorder:
             d["scans"].append(scan_record(m))
 
     def close(self):
-        for s in self.subs + [self._tf_sub]:
+        for s in self.subs + [self._tf_sub, self._diag_sub]:
             s.unregister()
 
 
@@ -202,7 +210,7 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
         rec.close()
         launch.raise_if_stopped()
         return {"outputs": outputs, "publishers": pubs, "records": rec.data, "cpu": cpu_res,
-                "static_tf": list(rec.static_tf.values()),
+                "static_tf": list(rec.static_tf.values()), "diagnostics": dict(rec.diagnostics),
                 "consumer_cpu_percent": 100.0 * own_cpu / data_s,
                 "wall": wall, "launch": launch.cmd, "player": player.cmd}
     finally:

@@ -44,6 +44,16 @@ def table(header, rows):
     return "\n".join(out)
 
 
+def dropped_cell(output):
+    """Dropped inputs (%), and those a merger put into a later output, where its diagnostics say."""
+    if not output["inputs"]:
+        return "n/a"
+    cell = "%d (%s)" % (output["dropped"], fmt(output["dropped_fraction"], 100))
+    if output.get("merged_later"):
+        cell += "; %d merged into a later output" % output["merged_later"]
+    return cell
+
+
 def outputs_table(results):
     rows = []
     for t, o in sorted(results["outputs"].items()):
@@ -53,8 +63,7 @@ def outputs_table(results):
                      "%s / %s" % (fmt(o.get("delay_after_input_median_s"), 1000),
                                   fmt(o.get("delay_after_input_p95_s"), 1000)),
                      fmt(o["bytes_per_s"], 1e-3),
-                     "%d (%s)" % (o["dropped"], fmt(o["dropped_fraction"], 100)) if o["inputs"]
-                     else "n/a", ins or "n/a", fmt(o["coverage"], 100)])
+                     dropped_cell(o), ins or "n/a", fmt(o["coverage"], 100)])
     return table(["output", "messages", "rate Hz", "latency median ms", "latency p95 ms",
                   "delay after input median / p95 ms", "kB/s", "dropped (%)",
                   "inputs matched by stamp", "coverage %"], rows)
@@ -181,7 +190,9 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
               "Rate from the stamps; latency = time of receipt (bag clock) minus stamp; "
               "delay after input = time of receipt minus the bag time of the input that "
               "carries the same stamp; an input is dropped when its stamp never reappears "
-              "on the output.", "",
+              "on the output, except where a merger's diagnostics count it as received and not "
+              "dropped: a merger stamps each output with its newest input's time, so an input "
+              "that comes after a newer one is merged into a later output under that stamp.", "",
               outputs_table(results), ""] + stamps_ahead_note(results) + ["## CPU", "",
               "CPU seconds per second of bag data, in percent of one core (the measuring "
               "window, %.1f s of wall time, also holds rosbag's start delay and the last "
@@ -385,7 +396,8 @@ def summary_text(res):
     for t, o in sorted(res["outputs"].items()):
         lines.append("  %-28s %5d msgs %6s Hz  latency p95 %6s ms  dropped %s" % (
             t, o["count"], fmt(o["rate_hz"]), fmt(o["latency_p95_s"], 1000),
-            o["dropped"] if o["inputs"] else "n/a"))
+            ("%d%s" % (o["dropped"], " (%d merged later)" % o["merged_later"] if o.get("merged_later") else ""))
+            if o["inputs"] else "n/a"))
     if stamps_ahead_note(res):
         lines.append("  negative latencies: stamps ahead of the bag clock (see the report); "
                      "the pipeline's own delay is 'delay after input'")
