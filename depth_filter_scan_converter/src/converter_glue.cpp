@@ -51,7 +51,9 @@ ConverterDiagnostics::ConverterDiagnostics(ros::NodeHandle nh, ros::NodeHandle p
 {
   updater_.setHardwareID(private_nh.getNamespace());  // the node's name: one converter per sensor
   updater_.add("Input and processing", std::move(task));
-  timer_ = nh.createTimer(ros::Duration(1.0), [this](const ros::TimerEvent&) { updater_.update(); });
+  // Every second of wall time, as the merger's: the status goes on while a simulated clock stands
+  // still (a bag paused or ended), when the updater's own period, in ROS time, would stop it.
+  timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { updater_.force_update(); });
 }
 
 double RateMeter::rate(std::uint64_t received)

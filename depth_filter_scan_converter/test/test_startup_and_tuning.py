@@ -212,6 +212,24 @@ def test_diagnostics_are_published(ros_env):
     assert 'hardware_id: "/conv_diag"' in r.stdout, r.stdout
 
 
+def test_diagnostics_go_on_while_a_simulated_clock_stands_still(ros_env):
+    """use_sim_time with a clock that does not move (a bag not yet playing, paused or ended): the
+    status still comes every second of wall time (diagnostic_updater's own period, in ROS time,
+    would publish nothing)."""
+    subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=ros_env, check=True)
+    try:
+        load_params(ros_env, "conv_clock")
+        p = start(ros_env, "conv_clock")
+        try:
+            r = subprocess.run(["rostopic", "echo", "-n", "3", "/diagnostics"], env=ros_env, capture_output=True,
+                               text=True, timeout=30)
+        finally:
+            stop(p)
+    finally:
+        subprocess.run(["rosparam", "delete", "/use_sim_time"], env=ros_env)
+    assert r.stdout.count("conv_clock: Input and processing") == 3, r.stdout + r.stderr
+
+
 def test_malformed_warnings_are_throttled_though_stamps_differ(ros_env):
     # The reason names each cloud's stamp; a stream of the same defect must still be warned about
     # once per 5 s, not once per cloud (it was, before the throttle ignored the numbers).

@@ -388,6 +388,26 @@ sys.stdout.flush()
 '''
 
 
+def test_diagnostics_go_on_while_a_simulated_clock_stands_still(ros_env):
+    """use_sim_time with a clock that does not move (a bag not yet playing, paused or ended): each
+    source's status still comes every second of wall time, naming the merged scan topic."""
+    subprocess.run(['rosparam', 'set', '/use_sim_time', 'true'], env=ros_env, check=True)
+    try:
+        set_params(ros_env, 'merger_clock', 'sources: [{name: front, topic: clock_test/scan}]')
+        node = ['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_clock']
+        p = subprocess.Popen(node, env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        try:
+            r = subprocess.run(['rostopic', 'echo', '-n', '3', '/diagnostics'], env=ros_env, capture_output=True,
+                               text=True, timeout=30)
+        finally:
+            p.send_signal(signal.SIGINT)
+            p.communicate(timeout=20)
+    finally:
+        subprocess.run(['rosparam', 'delete', '/use_sim_time'], env=ros_env)
+    assert r.stdout.count('merger_clock: source front') == 3, r.stdout + r.stderr
+    assert 'value: "/merged_scan"' in r.stdout, r.stdout
+
+
 def test_time_jump_and_odometry_stop(ros_env):
     subprocess.run(['rosparam', 'set', '/use_sim_time', 'true'], env=ros_env, check=True)
     try:

@@ -83,7 +83,7 @@ public:
 
 private:
   diagnostic_updater::Updater updater_;
-  ros::Timer timer_;
+  ros::WallTimer timer_;
 };
 
 /// Input messages per second between two diagnostics updates.
