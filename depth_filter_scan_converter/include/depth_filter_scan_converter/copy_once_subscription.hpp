@@ -3,7 +3,8 @@
 // roscpp deserialises a uint8[] field with resize() then memcpy: resize() zero-fills the whole
 // buffer first, a second pass over every cloud or image that costs as much as the copy (about
 // 0.1 ms per 52k-point cloud, 1 ms per 640 x 480 cloud). These subscriptions read the same
-// message type from the same wire format, copying the bytes straight from the socket's buffer.
+// message type from the same wire format with roscpp's own serializer, copying the bytes straight
+// from the socket's buffer.
 // The subscriber's C++ type stays sensor_msgs::PointCloud2 / Image, so a publisher in the same
 // nodelet manager still hands over its shared pointer (no deserialisation at all).
 #pragma once
@@ -23,40 +24,37 @@ namespace depth_filter_scan_converter
 {
 namespace wire
 {
-/// A uint8[] field: its length, then the bytes, copied once. Throws ros::serialization's
-/// StreamOverrunException on a short buffer, as roscpp's own reader does.
-inline void readBytes(ros::serialization::IStream& stream, std::vector<std::uint8_t>& bytes)
+/// roscpp's input stream with one change: a uint8[] field (a cloud's or an image's data) is
+/// copied once, without the zero-fill of resize(). Every other field is read by roscpp's code.
+class CopyOnceStream : public ros::serialization::IStream
 {
-  std::uint32_t length = 0;
-  stream.next(length);
-  const std::uint8_t* const begin = stream.advance(length);
-  bytes.assign(begin, begin + length);  // copies, without the zero-fill of resize()
-}
+public:
+  using IStream::IStream;
 
-/// The fields in the order of sensor_msgs/PointCloud2's definition.
-inline void read(ros::serialization::IStream& stream, sensor_msgs::PointCloud2& cloud)
-{
-  stream.next(cloud.header);
-  stream.next(cloud.height);
-  stream.next(cloud.width);
-  stream.next(cloud.fields);
-  stream.next(cloud.is_bigendian);
-  stream.next(cloud.point_step);
-  stream.next(cloud.row_step);
-  readBytes(stream, cloud.data);
-  stream.next(cloud.is_dense);
-}
+  template <typename T>
+  void next(T& value)
+  {
+    IStream::next(value);
+  }
 
-/// The fields in the order of sensor_msgs/Image's definition.
-inline void read(ros::serialization::IStream& stream, sensor_msgs::Image& image)
+  /// Its length, then the bytes. Throws StreamOverrunException on a short buffer, as roscpp does.
+  void next(std::vector<std::uint8_t>& bytes)
+  {
+    std::uint32_t length = 0;
+    IStream::next(length);
+    const std::uint8_t* const begin = advance(length);
+    bytes.assign(begin, begin + length);
+  }
+};
+
+/// Reads M from `stream` in the field order of roscpp's generated serializer, its top-level
+/// uint8[] fields copied once (CopyOnceStream); the stream is left after the message.
+template <class M>
+void read(ros::serialization::IStream& stream, M& message)
 {
-  stream.next(image.header);
-  stream.next(image.height);
-  stream.next(image.width);
-  stream.next(image.encoding);
-  stream.next(image.is_bigendian);
-  stream.next(image.step);
-  readBytes(stream, image.data);
+  CopyOnceStream copy_once(stream.getData(), stream.getLength());
+  ros::serialization::Serializer<M>::read(copy_once, message);
+  stream.advance(stream.getLength() - copy_once.getLength());
 }
 }  // namespace wire
 
@@ -77,7 +75,7 @@ public:
   }
 };
 
-/// nh.subscribe(topic, queue_size, callback) for M = PointCloud2 or Image, copying bytes once.
+/// nh.subscribe(topic, queue_size, callback) for M (PointCloud2, Image), copying its bytes once.
 template <class M>
 ros::Subscriber subscribeCopyingOnce(ros::NodeHandle& nh, const std::string& topic, std::uint32_t queue_size,
                                      const std::function<void(const boost::shared_ptr<const M>&)>& callback)
