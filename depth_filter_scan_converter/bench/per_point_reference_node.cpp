@@ -110,12 +110,12 @@ private:
   void connectionChanged()
   {
     std::lock_guard<std::mutex> lock(connect_mutex_);
-    const bool wanted = scan_pub_.getNumSubscribers() > 0;  // read once: it may change meanwhile
-    if (wanted && !subscribed_)
+    const bool wanted = scan_pub_.getNumSubscribers() > 0;                  // read once: it may change meanwhile
+    const bool subscribed = static_cast<bool>(cloud_sub_.getSubscriber());  // false once unsubscribed
+    if (wanted && !subscribed)
       cloud_sub_.subscribe(nh_, "cloud_in", settings_->queue_size);
-    else if (!wanted && subscribed_)
+    else if (!wanted && subscribed)
       cloud_sub_.unsubscribe();
-    subscribed_ = wanted;
   }
 
   // Allocates as that node does, in the same order (the scan's ranges, then the transformed cloud),
@@ -173,7 +173,6 @@ private:
   }
 
   std::mutex connect_mutex_;
-  bool subscribed_ = false;
   ros::NodeHandle nh_;
   std::unique_ptr<ScanSettings> settings_;
   std::unique_ptr<tf2_ros::Buffer> buffer_;
