@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <utility>
 
+#include "laserscan_common/diagnostics_timer.hpp"
+
 namespace depth_filter_scan_converter
 {
 int readQueueSize(const ros::NodeHandle& private_nh)
@@ -51,9 +53,7 @@ ConverterDiagnostics::ConverterDiagnostics(ros::NodeHandle nh, ros::NodeHandle p
 {
   updater_.setHardwareID(private_nh.getNamespace());  // the node's name: one converter per sensor
   updater_.add("Input and processing", std::move(task));
-  // Every second of wall time, as the merger's: the status goes on while a simulated clock stands
-  // still (a bag paused or ended), when the updater's own period, in ROS time, would stop it.
-  timer_ = nh.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { updater_.force_update(); });
+  timer_ = laserscan_common::diagnosticsTimer(nh, updater_);
 }
 
 double RateMeter::rate(std::uint64_t received)

@@ -8,6 +8,8 @@
 
 #include <tf2_eigen/tf2_eigen.h>
 
+#include "laserscan_common/diagnostics_timer.hpp"
+
 namespace multi_laserscan_merger
 {
 
@@ -231,10 +233,7 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   if (params_.publish_rate > 0.0)
     publish_timer_ = nh_.createTimer(ros::Duration(1.0 / params_.publish_rate),
                                      [this](const ros::TimerEvent& e) { timerCallback(e); });
-  // Every second of wall time: the status goes on while a simulated clock stands still (a bag
-  // paused or ended), when the updater's own period, in ROS time, would stop it.
-  diagnostics_timer_ =
-    nh_.createWallTimer(ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { updater_->force_update(); });
+  diagnostics_timer_ = laserscan_common::diagnosticsTimer(nh_, *updater_);
   ROS_INFO("%s: merging %zu sources into '%s' on '%s' (%zu beams), publish_rate %.1f Hz, motion compensation %s",
            name_.c_str(), sources_.size(), params_.output.frame.c_str(), output_topic.c_str(), core_->beamCount(),
            params_.publish_rate, params_.odom_topic.empty() ? "off" : ("from '" + params_.odom_topic + "'").c_str());
