@@ -91,3 +91,63 @@ def test_an_ended_roslaunch_is_reported(tmp_path):
     launch = _launch_with(tmp_path, ["shutting down processing monitor..."], False)
     with pytest.raises(rosrun.RunError, match="the pipeline stopped during playback"):
         launch.raise_if_stopped()
+
+
+class _FakeLaunch:
+    """Stands in for roslaunch in Session.launched: records what was started, waited for, stopped."""
+
+    made = []
+
+    def __init__(self, launch_file, args, log_path, fail_waiting=False):
+        self.launch_file, self.args, self.log_path = launch_file, list(args), log_path
+        self.calls, self.fail_waiting = [], fail_waiting
+        _FakeLaunch.made.append(self)
+
+    def start(self):
+        self.calls.append("start")
+        return self
+
+    def wait_ready(self, master, ignore_nodes=()):
+        self.calls.append(("wait_ready", master, tuple(ignore_nodes)))
+        if self.fail_waiting:
+            raise rosrun.RunError("roslaunch exited with status 1")
+        return {"/merged_scan": ["/merger"]}
+
+    def stop(self):
+        self.calls.append("stop")
+
+
+@pytest.fixture
+def fake_session(tmp_path, monkeypatch):
+    """A Session on tmp_path whose launches are _FakeLaunch and whose master is a marker object."""
+    _FakeLaunch.made = []
+    monkeypatch.setattr(rosrun, "own_node_name", lambda: "/laserscan_evaluate_1")
+    session = rosrun.Session(workdir=str(tmp_path))
+    session.master = type("M", (), {"master": "the master proxy"})()
+    return session
+
+
+def test_a_session_launch_is_ready_inside_and_stopped_after(fake_session, monkeypatch, tmp_path):
+    monkeypatch.setattr(rosrun, "Launch", _FakeLaunch)
+    with fake_session.launched("pipeline.launch", ["standalone:=true"], "manager_1") as (launch, pubs):
+        assert pubs == {"/merged_scan": ["/merger"]}
+        assert launch.calls == ["start", ("wait_ready", "the master proxy", ("/laserscan_evaluate_1",))]
+    assert launch.calls[-1] == "stop"
+    assert launch.args == ["standalone:=true"]
+    assert launch.log_path == str(tmp_path / "manager_1_roslaunch.log")
+
+
+def test_a_session_launch_is_stopped_when_the_run_fails(fake_session, monkeypatch):
+    monkeypatch.setattr(rosrun, "Launch", _FakeLaunch)
+    with pytest.raises(ValueError):
+        with fake_session.launched("pipeline.launch"):
+            raise ValueError("the run failed")
+    assert _FakeLaunch.made[0].calls[-1] == "stop"
+
+
+def test_a_session_launch_that_never_gets_ready_is_stopped(fake_session, monkeypatch):
+    monkeypatch.setattr(rosrun, "Launch", lambda *a: _FakeLaunch(*a, fail_waiting=True))
+    with pytest.raises(rosrun.RunError, match="roslaunch exited"):
+        with fake_session.launched("pipeline.launch"):
+            pytest.fail("the body must not run when the launch never got ready")
+    assert _FakeLaunch.made[0].calls[-1] == "stop"

@@ -17,8 +17,7 @@ import time
 import numpy as np
 
 from ..ros.cpu_accounting import process_cpu_s
-from ..ros.rosrun import (REPO, BagPlayer, CpuMeter, Launch, RunError, log_tail, own_node_name,
-                          wait_connected)
+from ..ros.rosrun import REPO, BagPlayer, CpuMeter, RunError, log_tail, own_node_name, wait_connected
 
 DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
 SKIP_TOPICS = {"/rosout", "/rosout_agg", "/clock", "/tf", "/tf_static", "/diagnostics"}
@@ -163,60 +162,58 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
         def select(topic, type_):
             return type_ in record_types
     wd = session.workdir
-    launch = Launch(launch_file, launch_args, os.path.join(wd, label + "_roslaunch.log")).start()
     rec = None
-    try:
+    with session.launched(launch_file, launch_args, label) as (launch, pubs):
         master = session.master.master
-        pubs = launch.wait_ready(master, ignore_nodes=(own_node_name(),))
-        types = dict(master.getTopicTypes())
-        outputs = {t: types.get(t, "?") for t in pubs if t not in SKIP_TOPICS}
-        to_record = {t: ty for t, ty in outputs.items() if select(t, ty)}
-        rec = Recorder(to_record)
-        wait_connected(rec.subs)
-        procs = launch.processes()
-        cpu = CpuMeter(procs)
-        player = BagPlayer(bag_info["path"], os.path.join(wd, label + "_play.log"), rate=rate)
-        own0 = process_cpu_s(os.getpid())  # this process is the consumer of what it records
-        cpu.start()
-        player.start()
-        bag_topics = set(bag_info["topics"])
+        try:
+            types = dict(master.getTopicTypes())
+            outputs = {t: types.get(t, "?") for t in pubs if t not in SKIP_TOPICS}
+            to_record = {t: ty for t, ty in outputs.items() if select(t, ty)}
+            rec = Recorder(to_record)
+            wait_connected(rec.subs)
+            procs = launch.processes()
+            cpu = CpuMeter(procs)
+            player = BagPlayer(bag_info["path"], os.path.join(wd, label + "_play.log"), rate=rate)
+            own0 = process_cpu_s(os.getpid())  # this process is the consumer of what it records
+            cpu.start()
+            player.start()
+            bag_topics = set(bag_info["topics"])
 
-        def late_outputs():
-            # Some nodes (relays, lazy publishers) advertise only once data flows.
-            try:
-                state = master.getSystemState()
-                types = dict(master.getTopicTypes())
-            except Exception:
-                return
-            me = own_node_name()
-            for topic, nodes in state[0]:
-                nodes = [n for n in nodes if n not in ("/rosout", me) and "play" not in n]
-                if nodes and topic not in outputs and topic not in SKIP_TOPICS \
-                        and topic not in bag_topics:
-                    outputs[topic] = types.get(topic, "?")
-                    if select(topic, outputs[topic]):
-                        rec.add({topic: outputs[topic]})
+            def late_outputs():
+                # Some nodes (relays, lazy publishers) advertise only once data flows.
+                try:
+                    state = master.getSystemState()
+                    types = dict(master.getTopicTypes())
+                except Exception:
+                    return
+                me = own_node_name()
+                for topic, nodes in state[0]:
+                    nodes = [n for n in nodes if n not in ("/rosout", me) and "play" not in n]
+                    if nodes and topic not in outputs and topic not in SKIP_TOPICS \
+                            and topic not in bag_topics:
+                        outputs[topic] = types.get(topic, "?")
+                        if select(topic, outputs[topic]):
+                            rec.add({topic: outputs[topic]})
 
-        _wait_playback(player, bag_info, progress, label, late_outputs)
-        time.sleep(tail)  # outputs of the last inputs are still on their way
-        cpu_res, wall = cpu.stop()
-        own_cpu = process_cpu_s(os.getpid()) - own0
-        # CPU per second of data: the window also holds rosbag's start delay and the tail,
-        # during which the pipeline idles; short bags would otherwise look cheaper.
-        data_s = max((bag_info["end"] - bag_info["start"]) / rate, 1e-9)
-        for c in cpu_res.values():
-            c["cpu_percent_wall"] = c["cpu_percent"]
-            c["cpu_percent"] = 100.0 * c["cpu_seconds"] / data_s
-        rec.close()
-        launch.raise_if_stopped()
-        return {"outputs": outputs, "publishers": pubs, "records": rec.data, "cpu": cpu_res,
-                "static_tf": list(rec.static_tf.values()), "diagnostics": dict(rec.diagnostics),
-                "consumer_cpu_percent": 100.0 * own_cpu / data_s,
-                "wall": wall, "launch": launch.cmd, "player": player.cmd}
-    finally:
-        if rec is not None:
+            _wait_playback(player, bag_info, progress, label, late_outputs)
+            time.sleep(tail)  # outputs of the last inputs are still on their way
+            cpu_res, wall = cpu.stop()
+            own_cpu = process_cpu_s(os.getpid()) - own0
+            # CPU per second of data: the window also holds rosbag's start delay and the tail,
+            # during which the pipeline idles; short bags would otherwise look cheaper.
+            data_s = max((bag_info["end"] - bag_info["start"]) / rate, 1e-9)
+            for c in cpu_res.values():
+                c["cpu_percent_wall"] = c["cpu_percent"]
+                c["cpu_percent"] = 100.0 * c["cpu_seconds"] / data_s
             rec.close()
-        launch.stop()
+            launch.raise_if_stopped()
+            return {"outputs": outputs, "publishers": pubs, "records": rec.data, "cpu": cpu_res,
+                    "static_tf": list(rec.static_tf.values()), "diagnostics": dict(rec.diagnostics),
+                    "consumer_cpu_percent": 100.0 * own_cpu / data_s,
+                    "wall": wall, "launch": launch.cmd, "player": player.cmd}
+        finally:
+            if rec is not None:
+                rec.close()
 
 
 def _wait_playback(player, bag_info, progress, label, poll=None):

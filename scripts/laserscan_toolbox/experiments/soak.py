@@ -17,8 +17,7 @@ import sys
 import time
 
 from ..evaluation.report import fmt, table, write_json
-from ..ros.rosrun import (REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name,
-                          wait_connected)
+from ..ros.rosrun import REPO, BagPlayer, RunError, Session, log_tail, wait_connected
 
 DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
 OUTPUT_TOPICS = ("/merged_scan", "/lidar_scan", "/camera_left/scan", "/camera_right/scan")
@@ -189,52 +188,50 @@ def run(outdir, duration=1800.0, rate=10.0, interval=10.0, bag_duration=10.0, ca
     with Session() as session:
         wd = session.workdir
         bag = simulate(os.path.join(wd, "soak.bag"), bag_duration, camera_points, seed)
-        launch = Launch(launch_file, [], os.path.join(wd, "roslaunch.log")).start()
-        arrivals = player = None
-        try:
-            launch.wait_ready(session.master.master, ignore_nodes=(own_node_name(),))
-            arrivals = _Arrivals(OUTPUT_TOPICS)
-            if not wait_connected(arrivals.subs, timeout=20.0):
-                raise RunError("could not connect to %s:\n%s" % (", ".join(OUTPUT_TOPICS),
-                                                                 log_tail(launch.log_path)))
-            player = BagPlayer(bag, os.path.join(wd, "play.log"), rate=rate, extra=["-l"]).start()
-            # The feed starts after rosbag play's 1 s delay; the first outputs mark it.
-            deadline = time.time() + 30.0
-            while not arrivals.times["/merged_scan"]:
-                if time.time() > deadline or not player.running():
-                    raise RunError("no /merged_scan within 30 s of the feed:\n%s" % log_tail(launch.log_path))
-                time.sleep(0.05)
-            start = time.time()
-            rss = {}
-            next_sample = start
-            while True:
-                now = time.time()
-                if now >= next_sample:
-                    procs = launch.processes()
-                    for name, value in _rss_sample(procs).items():
-                        rss.setdefault(name, []).append((round(now - start, 3), value))
-                    log("  %4.0f s: RSS total %.1f MB, %s" % (
-                        now - start, sum(s[-1][1] for s in rss.values()) / MB,
-                        ", ".join("%s %d" % (t, len(v)) for t, v in arrivals.times.items())))
-                    next_sample += interval
-                if now - start >= duration:
-                    break
-                if launch.proc.poll() is not None or not player.running():
-                    raise RunError("the pipeline or the player stopped after %.0f s:\n%s"
-                                   % (now - start, log_tail(launch.log_path)))
-                time.sleep(min(0.5, max(0.0, next_sample - time.time())))
-            end = time.time()
-            # Processes that exited before the end (e.g. the check_config runs) are not the
-            # pipeline's memory: keep those sampled at the end.
-            last_t = max(t for series in rss.values() for t, _ in series)
-            rss = {k: v for k, v in rss.items() if v[-1][0] == last_t}
-            times = {t: list(v) for t, v in arrivals.times.items()}
-        finally:
-            if player is not None:
-                player.stop()
-            if arrivals is not None:
-                arrivals.close()
-            launch.stop()
+        with session.launched(launch_file, label="soak") as (launch, _):
+            arrivals = player = None
+            try:
+                arrivals = _Arrivals(OUTPUT_TOPICS)
+                if not wait_connected(arrivals.subs, timeout=20.0):
+                    raise RunError("could not connect to %s:\n%s" % (", ".join(OUTPUT_TOPICS),
+                                                                     log_tail(launch.log_path)))
+                player = BagPlayer(bag, os.path.join(wd, "play.log"), rate=rate, extra=["-l"]).start()
+                # The feed starts after rosbag play's 1 s delay; the first outputs mark it.
+                deadline = time.time() + 30.0
+                while not arrivals.times["/merged_scan"]:
+                    if time.time() > deadline or not player.running():
+                        raise RunError("no /merged_scan within 30 s of the feed:\n%s" % log_tail(launch.log_path))
+                    time.sleep(0.05)
+                start = time.time()
+                rss = {}
+                next_sample = start
+                while True:
+                    now = time.time()
+                    if now >= next_sample:
+                        procs = launch.processes()
+                        for name, value in _rss_sample(procs).items():
+                            rss.setdefault(name, []).append((round(now - start, 3), value))
+                        log("  %4.0f s: RSS total %.1f MB, %s" % (
+                            now - start, sum(s[-1][1] for s in rss.values()) / MB,
+                            ", ".join("%s %d" % (t, len(v)) for t, v in arrivals.times.items())))
+                        next_sample += interval
+                    if now - start >= duration:
+                        break
+                    if launch.proc.poll() is not None or not player.running():
+                        raise RunError("the pipeline or the player stopped after %.0f s:\n%s"
+                                       % (now - start, log_tail(launch.log_path)))
+                    time.sleep(min(0.5, max(0.0, next_sample - time.time())))
+                end = time.time()
+                # Processes that exited before the end (e.g. the check_config runs) are not the
+                # pipeline's memory: keep those sampled at the end.
+                last_t = max(t for series in rss.values() for t, _ in series)
+                rss = {k: v for k, v in rss.items() if v[-1][0] == last_t}
+                times = {t: list(v) for t, v in arrivals.times.items()}
+            finally:
+                if player is not None:
+                    player.stop()
+                if arrivals is not None:
+                    arrivals.close()
     res = {"duration_s": duration, "rate": rate, "interval_s": interval, "bag_duration_s": bag_duration,
            "camera_points": camera_points, "seed": seed, "stall_s": stall_s, "loadavg_before": load0,
            "loadavg_after": os.getloadavg(), "cpu_count": os.cpu_count(), "rss": rss,

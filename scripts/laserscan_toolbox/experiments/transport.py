@@ -17,8 +17,7 @@ import time
 
 from ..evaluation.report import fmt, table, write_json
 from ..ros.cpu_accounting import snapshot, spent, tree_processes
-from ..ros.rosrun import (LOADER_TAG, REPO, BagPlayer, Launch, RunError, Session, log_tail, own_node_name,
-                          process_name, wait_connected)
+from ..ros.rosrun import LOADER_TAG, REPO, BagPlayer, RunError, Session, log_tail, process_name, wait_connected
 
 MODES = ("manager", "standalone")
 OUTPUT_TOPICS = ("/merged_scan", "/lidar_scan")
@@ -86,49 +85,46 @@ def measure(session, bag, mode, launch_file, launch_args, label, tail=0.5):
     """Plays ``bag`` through the launch in ``mode``; returns that run's figures."""
     args = list(launch_args) + ["standalone:=%s" % ("true" if mode == "standalone" else "false")]
     wd = session.workdir
-    launch = Launch(launch_file, args, os.path.join(wd, label + "_roslaunch.log")).start()
     rec = None
-    try:
-        master = session.master.master
-        pubs = launch.wait_ready(master, ignore_nodes=(own_node_name(),))
-        missing = [t for t in OUTPUT_TOPICS if t not in pubs]
-        if missing:
-            raise RunError("%s: the pipeline does not publish %s:\n%s"
-                           % (mode, ", ".join(missing), log_tail(launch.log_path)))
-        rec = _Counter(OUTPUT_TOPICS)
-        if not wait_connected(rec.subs, timeout=10.0):
-            raise RunError("%s: could not connect to %s" % (mode, ", ".join(OUTPUT_TOPICS)))
-        procs = tree_processes(launch.proc.pid)
-        player = BagPlayer(bag, os.path.join(wd, label + "_play.log"))
-        before = snapshot(procs, process_name)
-        t0 = time.time()
-        n0 = dict(rec.count)
-        player.start()
-        while player.running():
-            time.sleep(0.1)
-        time.sleep(tail)  # the last inputs' outputs are still on their way
-        # re-list the tree: a node respawned during the window would be counted from 0
-        after = snapshot(tree_processes(launch.proc.pid), process_name)
-        window = time.time() - t0
-        counts = {t: rec.count[t] - n0[t] for t in OUTPUT_TOPICS}
-        if player.proc.returncode != 0:
-            raise RunError("rosbag play failed (status %s):\n%s"
-                           % (player.proc.returncode, log_tail(player.log_path)))
-        launch.raise_if_stopped("%s: the pipeline" % mode)
-        d = spent(before, after)
-        if counts["/merged_scan"] == 0:
-            raise RunError("%s: no /merged_scan during playback:\n%s"
-                           % (mode, log_tail(launch.log_path)))
-        fig = run_figures(d["total_s"], window, counts["/merged_scan"],
-                          loader_cpu_s(d["per_process"]))
-        fig.update({"mode": mode, "processes": len(d["per_process"]), "counts": counts,
-                    "per_process_cpu_s": d["per_process"], "lost": d["lost"],
-                    "cpu_source": d["source"]})
-        return fig
-    finally:
-        if rec is not None:
-            rec.close()
-        launch.stop()
+    with session.launched(launch_file, args, label) as (launch, pubs):
+        try:
+            missing = [t for t in OUTPUT_TOPICS if t not in pubs]
+            if missing:
+                raise RunError("%s: the pipeline does not publish %s:\n%s"
+                               % (mode, ", ".join(missing), log_tail(launch.log_path)))
+            rec = _Counter(OUTPUT_TOPICS)
+            if not wait_connected(rec.subs, timeout=10.0):
+                raise RunError("%s: could not connect to %s" % (mode, ", ".join(OUTPUT_TOPICS)))
+            procs = tree_processes(launch.proc.pid)
+            player = BagPlayer(bag, os.path.join(wd, label + "_play.log"))
+            before = snapshot(procs, process_name)
+            t0 = time.time()
+            n0 = dict(rec.count)
+            player.start()
+            while player.running():
+                time.sleep(0.1)
+            time.sleep(tail)  # the last inputs' outputs are still on their way
+            # re-list the tree: a node respawned during the window would be counted from 0
+            after = snapshot(tree_processes(launch.proc.pid), process_name)
+            window = time.time() - t0
+            counts = {t: rec.count[t] - n0[t] for t in OUTPUT_TOPICS}
+            if player.proc.returncode != 0:
+                raise RunError("rosbag play failed (status %s):\n%s"
+                               % (player.proc.returncode, log_tail(player.log_path)))
+            launch.raise_if_stopped("%s: the pipeline" % mode)
+            d = spent(before, after)
+            if counts["/merged_scan"] == 0:
+                raise RunError("%s: no /merged_scan during playback:\n%s"
+                               % (mode, log_tail(launch.log_path)))
+            fig = run_figures(d["total_s"], window, counts["/merged_scan"],
+                              loader_cpu_s(d["per_process"]))
+            fig.update({"mode": mode, "processes": len(d["per_process"]), "counts": counts,
+                        "per_process_cpu_s": d["per_process"], "lost": d["lost"],
+                        "cpu_source": d["source"]})
+            return fig
+        finally:
+            if rec is not None:
+                rec.close()
 
 
 class _Counter:

@@ -6,6 +6,7 @@ temporary folder, so it never collides with a robot's master or with a test's. C
 processes get their own process group and are stopped by that id only.
 """
 
+import contextlib
 import os
 import shutil
 import signal
@@ -151,6 +152,17 @@ class Session:
         rospy.init_node("laserscan_evaluate", anonymous=True, disable_signals=True,
                         disable_rosout=True)
         return self
+
+    @contextlib.contextmanager
+    def launched(self, launch_file, args=(), label="run"):
+        """``roslaunch launch_file args...`` on this session's master, logging to
+        <workdir>/<label>_roslaunch.log. Yields (the Launch, {topic: [publisher nodes]} of what its
+        nodes publish) once those publications have settled; stops the launch on leaving."""
+        launch = Launch(launch_file, args, os.path.join(self.workdir, label + "_roslaunch.log")).start()
+        try:
+            yield launch, launch.wait_ready(self.master.master, ignore_nodes=(own_node_name(),))
+        finally:
+            launch.stop()
 
     def __exit__(self, *exc):
         import rospy

@@ -99,23 +99,16 @@ def bag_screenshot(bag, launch_file, config, out_png, start=0.0, play=6.0, launc
     the demo and the tests)."""
     import threading
     import time
-    from .rosrun import BagPlayer, Launch, Session
+    from .rosrun import BagPlayer, Session
     err = []
-    with Session(workdir=workdir) as session:
-        launch = Launch(launch_file, launch_args,
-                        os.path.join(session.workdir, "shot_roslaunch.log")).start()
-        try:
-            launch.wait_ready(session.master.master)
-            th = threading.Thread(target=lambda: _shot(config, out_png, warmup + play + 1.0, err,
-                                                       command))
-            th.start()
-            time.sleep(warmup)
-            player = BagPlayer(bag, os.path.join(session.workdir, "shot_play.log"),
-                               extra=["-s", str(start), "-u", str(play)]).start()
-            player.proc.wait(timeout=play + 60)
-            th.join()
-        finally:
-            launch.stop()
+    with Session(workdir=workdir) as session, session.launched(launch_file, launch_args, "shot"):
+        th = threading.Thread(target=lambda: _shot(config, out_png, warmup + play + 1.0, err, command))
+        th.start()
+        time.sleep(warmup)
+        player = BagPlayer(bag, os.path.join(session.workdir, "shot_play.log"),
+                           extra=["-s", str(start), "-u", str(play)]).start()
+        player.proc.wait(timeout=play + 60)
+        th.join()
     if err:
         raise err[0]
     return out_png
