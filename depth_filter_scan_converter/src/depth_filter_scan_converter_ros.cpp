@@ -66,10 +66,12 @@ Parameters loadParameters(const ros::NodeHandle& pnh)
   return p;
 }
 
-DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh, DepthInput input)
+DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh, DepthInput input,
+                                                   CloudReading reading)
   : nh_(nh),
     private_nh_(private_nh),
     input_(input),
+    reading_(reading),
     input_topic_(nh.resolveName(input == DepthInput::Cloud ? "cloud_in" : "image")),
     params_(loadParameters(private_nh)),
     queue_size_(readQueueSize(private_nh)),
@@ -137,8 +139,14 @@ void DepthFilterScanConverter::subscribeInput()
   const auto queue = static_cast<std::uint32_t>(queue_size_);
   if (input_ == DepthInput::Cloud)
   {
+    InPlaceReader<Cloud> in_place;
+    if (reading_ == CloudReading::InPlace)
+      in_place = [this](const Cloud& cloud, const std::uint8_t* bytes, std::size_t size) {
+        return convertInPlace(cloud, bytes, size);
+      };
     input_sub_ = subscribeCopyingOnce<Cloud>(
-      nh_, "cloud_in", queue, [this](const Cloud::ConstPtr& cloud) { arrived(cloud, nullptr, *cloud_filter_); });
+      nh_, "cloud_in", queue, [this](const Cloud::ConstPtr& cloud) { arrived(cloud, nullptr, *cloud_filter_); },
+      in_place);
   }
   else
   {
@@ -175,7 +183,7 @@ void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message
     if (transforms.canTransform(params_.transform.reference_frame,
                                 laserscan_common::tf2FrameId(message->header.frame_id), message->header.stamp))
     {
-      convert(*message, Arrival{ message, ros::Time(), info });
+      convert(*message, message->data.data(), message->data.size(), Arrival{ message, ros::Time(), info });
       return;
     }
     arrivals_.push_back({ message, ros::Time::now(), info });
@@ -185,6 +193,22 @@ void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message
       arrivals_.pop_front();
   }
   filter.add(message);
+}
+
+bool DepthFilterScanConverter::convertInPlace(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  // The checks of arrived(); a cloud that fails them takes the usual path, which reports it.
+  if (!headerProblem(cloud.header).empty())
+    return false;
+  const tf2::BufferCore& transforms = tf_buffer_;
+  if (!transforms.canTransform(params_.transform.reference_frame, laserscan_common::tf2FrameId(cloud.header.frame_id),
+                               cloud.header.stamp))
+    return false;
+  ++received_;
+  ++read_in_place_;
+  convert(cloud, bytes, size, Arrival{});
+  return true;
 }
 
 void DepthFilterScanConverter::imageArrived(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info)
@@ -271,21 +295,23 @@ void DepthFilterScanConverter::transformFailed(const boost::shared_ptr<const M>&
              last_tf_reason_.c_str());
 }
 
-std::string DepthFilterScanConverter::viewOf(const Cloud& cloud, const Arrival& /*arrival*/, CloudView& view)
+std::string DepthFilterScanConverter::viewOf(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size,
+                                             const Arrival& /*arrival*/, CloudView& view)
 {
   std::string intensity_note;
-  const std::string reason = makeCloudView(cloudLayoutOf(cloud), cloud.data.data(), cloud.data.size(),
-                                           params_.input.intensity_field, view, &intensity_note);
+  const std::string reason =
+    makeCloudView(cloudLayoutOf(cloud), bytes, size, params_.input.intensity_field, view, &intensity_note);
   if (reason.empty() && !intensity_note.empty() && warnings_.due("no intensity field", 30.0))
     ROS_WARN("[%s] %s: the scan has no intensities", private_nh_.getNamespace().c_str(), intensity_note.c_str());
   return reason;
 }
 
-std::string DepthFilterScanConverter::viewOf(const Image& image, const Arrival& arrival, DepthImageView& view)
+std::string DepthFilterScanConverter::viewOf(const Image& image, const std::uint8_t* bytes, std::size_t size,
+                                             const Arrival& arrival, DepthImageView& view)
 {
   if (!arrival.info)
     return "no camera_info for this image";
-  return makeDepthImageView(imageLayoutOf(image), image.data.data(), image.data.size(), cameraModelOf(*arrival.info),
+  return makeDepthImageView(imageLayoutOf(image), bytes, size, cameraModelOf(*arrival.info),
                             params_.input.depth_image_rectified, view);
 }
 
@@ -295,11 +321,12 @@ void DepthFilterScanConverter::process(const boost::shared_ptr<const M>& message
   std::lock_guard<std::mutex> lock(mutex_);
   Arrival arrival;
   takeArrival(message.get(), arrival);
-  convert(*message, arrival);
+  convert(*message, message->data.data(), message->data.size(), arrival);
 }
 
 template <class M>
-void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
+void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* bytes, std::size_t size,
+                                       const Arrival& arrival)
 {
   const auto start = std::chrono::steady_clock::now();
   const M* const cloud = &message;
@@ -321,7 +348,7 @@ void DepthFilterScanConverter::convert(const M& message, const Arrival& arrival)
   }
 
   std::conditional_t<std::is_same_v<M, Image>, DepthImageView, CloudView> view;
-  const std::string reason = viewOf(*cloud, arrival, view);
+  const std::string reason = viewOf(*cloud, bytes, size, arrival, view);
   if (!reason.empty())
   {
     dropMalformed(reason, cloud->header.frame_id);
@@ -466,6 +493,8 @@ void DepthFilterScanConverter::diagnose(diagnostic_updater::DiagnosticStatusWrap
   status.add("subscribed", subscribed);
   status.add("input rate [Hz]", rate);
   status.add("clouds received", received_);
+  if (input_ == DepthInput::Cloud)
+    status.add("clouds read in place (no copy)", read_in_place_);
   status.add("scans published", published_);
   status.add("processing time, last [ms]", last_ms_);
   status.add("processing time, mean [ms]", published_ > 0 ? sum_ms_ / static_cast<double>(published_) : 0.0);

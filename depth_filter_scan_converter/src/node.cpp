@@ -4,5 +4,6 @@
 int main(int argc, char** argv)
 {
   using namespace depth_filter_scan_converter;
-  return runNode<DepthFilterScanConverter>(argc, argv, "depth_filter_scan_converter", DepthInput::Cloud);
+  return runNode<DepthFilterScanConverter>(argc, argv, "depth_filter_scan_converter", DepthInput::Cloud,
+                                           CloudReading::InPlace);  // the only subscriber to its input in its process
 }

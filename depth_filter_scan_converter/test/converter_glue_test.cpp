@@ -7,6 +7,7 @@
 
 #include <ros/serialization.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -180,6 +181,75 @@ TEST(CopyOnceReader, SubscribersTypeIsTheMessagesOwnForZeroCopyInAManager)
   const auto image_helper = boost::make_shared<dfsc::CopyOnceCallbackHelper<sensor_msgs::Image>>(on_image);
   EXPECT_TRUE(cloud_helper->getTypeInfo() == typeid(sensor_msgs::PointCloud2));
   EXPECT_TRUE(image_helper->getTypeInfo() == typeid(sensor_msgs::Image));
+}
+
+namespace
+{
+// What roscpp's MessageDeserializer hands a helper: the message's bytes in its receive buffer.
+ros::VoidConstPtr deserializeWith(ros::SubscriptionCallbackHelper& helper, std::vector<std::uint8_t>& bytes)
+{
+  ros::SubscriptionCallbackHelperDeserializeParams params;
+  params.buffer = bytes.data();
+  params.length = static_cast<std::uint32_t>(bytes.size());
+  return helper.deserialize(params);
+}
+}  // namespace
+
+TEST(InPlaceReader, SeesTheMessageWithItsBytesInTheReceiveBuffer)
+{
+  const sensor_msgs::PointCloud2 cloud = someCloud();
+  std::vector<std::uint8_t> bytes = wireBytes(cloud);
+  const std::function<void(const sensor_msgs::PointCloud2ConstPtr&)> on_cloud = [](const auto&) {};
+  sensor_msgs::PointCloud2 seen;
+  const std::uint8_t* seen_bytes = nullptr;
+  std::size_t seen_size = 0;
+  dfsc::CopyOnceCallbackHelper<sensor_msgs::PointCloud2> helper(
+    on_cloud, [&](const sensor_msgs::PointCloud2& message, const std::uint8_t* data, std::size_t size) {
+      seen = message;
+      seen_bytes = data;
+      seen_size = size;
+      return true;
+    });
+  EXPECT_EQ(deserializeWith(helper, bytes), nullptr);  // taken: roscpp calls no callback
+  // The data is not copied: it is the span of the buffer just before the last field (is_dense).
+  ASSERT_EQ(seen_size, cloud.data.size());
+  EXPECT_EQ(seen_bytes, bytes.data() + bytes.size() - 1 - cloud.data.size());
+  EXPECT_TRUE(std::equal(cloud.data.begin(), cloud.data.end(), seen_bytes));
+  // Every other field is read.
+  EXPECT_TRUE(seen.data.empty());
+  seen.data = cloud.data;
+  EXPECT_EQ(wireBytes(seen), bytes);
+}
+
+TEST(InPlaceReader, AMessageItDoesNotTakeIsDeliveredWhole)
+{
+  std::vector<std::uint8_t> bytes = wireBytes(someCloud());
+  const std::function<void(const sensor_msgs::PointCloud2ConstPtr&)> on_cloud = [](const auto&) {};
+  int offered = 0;
+  dfsc::CopyOnceCallbackHelper<sensor_msgs::PointCloud2> helper(
+    on_cloud, [&](const sensor_msgs::PointCloud2&, const std::uint8_t*, std::size_t) {
+      ++offered;
+      return false;
+    });
+  const auto message = boost::static_pointer_cast<const sensor_msgs::PointCloud2>(deserializeWith(helper, bytes));
+  EXPECT_EQ(offered, 1);
+  ASSERT_NE(message, nullptr);
+  EXPECT_EQ(wireBytes(*message), bytes);
+}
+
+TEST(InPlaceReader, AShortBufferThrowsBeforeTheReaderSeesIt)
+{
+  const std::vector<std::uint8_t> whole = wireBytes(someCloud());
+  std::vector<std::uint8_t> part(whole.begin(), whole.end() - 20);  // cut inside the data
+  const std::function<void(const sensor_msgs::PointCloud2ConstPtr&)> on_cloud = [](const auto&) {};
+  int offered = 0;
+  dfsc::CopyOnceCallbackHelper<sensor_msgs::PointCloud2> helper(
+    on_cloud, [&](const sensor_msgs::PointCloud2&, const std::uint8_t*, std::size_t) {
+      ++offered;
+      return true;
+    });
+  EXPECT_THROW(deserializeWith(helper, part), ros::serialization::StreamOverrunException);
+  EXPECT_EQ(offered, 0);
 }
 
 int main(int argc, char** argv)

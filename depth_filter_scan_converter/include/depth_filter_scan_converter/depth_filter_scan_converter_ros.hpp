@@ -47,12 +47,25 @@ enum class DepthInput
   Image
 };
 
+/// How clouds that come over a connection (TCP, not from a nodelet in the same manager) are read.
+enum class CloudReading
+{
+  /// Copied once out of roscpp's receive buffer. The only safe way in a nodelet manager, where
+  /// other nodelets may subscribe to the same topic: roscpp gives them the message it read for us.
+  CopyOnce,
+  /// Converted straight from roscpp's receive buffer when the cloud's transform is already there
+  /// (no copy at all), otherwise copied once. For a standalone node, the one subscriber to its
+  /// input in its process.
+  InPlace
+};
+
 class DepthFilterScanConverter
 {
 public:
   /// Topics (cloud_in or image + camera_info, scan, filtered_cloud) live in nh; parameters in
   /// private_nh. Throws laserscan_common::ParameterError on a bad configuration.
-  DepthFilterScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh, DepthInput input = DepthInput::Cloud);
+  DepthFilterScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh, DepthInput input = DepthInput::Cloud,
+                           CloudReading reading = CloudReading::CopyOnce);
   ~DepthFilterScanConverter();
 
   DepthFilterScanConverter(const DepthFilterScanConverter&) = delete;
@@ -86,15 +99,22 @@ private:
   template <class M>
   void transformFailed(const boost::shared_ptr<const M>& message,
                        tf2_ros::filter_failure_reasons::FilterFailureReason reason);
+  /// CloudReading::InPlace: converts a cloud whose bytes are still in roscpp's receive buffer
+  /// if it can be converted now (a usable header, its transform there); false leaves it to the
+  /// usual path (arrived), copied.
+  bool convertInPlace(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size);
   /// Both inputs, from the tf filter once the transform is there.
   template <class M>
   void process(const boost::shared_ptr<const M>& message);
-  /// Freshness, view, projection, publishing; mutex_ held. arrival.time is zero for a message
-  /// that never waited for its transform.
+  /// Freshness, view, projection, publishing; mutex_ held. `bytes` and `size` are the message's
+  /// data, wherever they are. arrival.time is zero for a message that never waited for its
+  /// transform.
   template <class M>
-  void convert(const M& message, const Arrival& arrival);
-  std::string viewOf(const Cloud& cloud, const Arrival& arrival, CloudView& view);
-  std::string viewOf(const Image& image, const Arrival& arrival, DepthImageView& view);
+  void convert(const M& message, const std::uint8_t* bytes, std::size_t size, const Arrival& arrival);
+  std::string viewOf(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size, const Arrival& arrival,
+                     CloudView& view);
+  std::string viewOf(const Image& image, const std::uint8_t* bytes, std::size_t size, const Arrival& arrival,
+                     DepthImageView& view);
   void imageArrived(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info);
   /// The synchronizer let go of an image whose camera_info never came (or of a lone camera_info).
   void imageDropped(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info);
@@ -108,6 +128,7 @@ private:
 
   ros::NodeHandle nh_, private_nh_;
   const DepthInput input_;
+  const CloudReading reading_;
   std::string input_topic_;  // resolved, for messages
   Parameters params_;
   int queue_size_;
@@ -134,7 +155,8 @@ private:
   bool first_reconfigure_ = true;
 
   // Statistics since start and since the last diagnostics update.
-  std::uint64_t received_ = 0, published_ = 0, tf_failures_ = 0, malformed_ = 0, stale_ = 0, without_info_ = 0;
+  std::uint64_t received_ = 0, published_ = 0, tf_failures_ = 0, malformed_ = 0, stale_ = 0, without_info_ = 0,
+                read_in_place_ = 0;
   std::uint64_t malformed_at_last_report_ = 0, tf_failures_at_last_report_ = 0, stale_at_last_report_ = 0,
                 without_info_at_last_report_ = 0;
   RateMeter rate_;

@@ -10,6 +10,12 @@ are those of the chosen points. Malformed clouds in the middle (one point short,
 at the end of ROS time, an empty frame_id) must not kill the converter: the next good cloud
 still gives its scan; a frame_id with a leading '/' is converted. The subscription to cloud_in is lazy: none before the
 test listens to the outputs, none after it stops listening.
+
+Clouds come over TCP. The standalone node (~read_in_place: true) converts one whose transform is
+already there straight from roscpp's receive buffer; the nodelet (false) copies every one, as
+other nodelets in its manager may take the same message. The first cloud is sent well after its
+transform, the fourth before it: the node's diagnostics must count at least one cloud read in
+place and not all of them, the nodelet's none.
 """
 import math
 import threading
@@ -20,6 +26,7 @@ import rospy
 import rostest
 import tf2_ros
 from geometry_msgs.msg import TransformStamped
+from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 
 CAMERA_HEIGHT = 0.8
@@ -101,6 +108,8 @@ class ConverterTest(unittest.TestCase):
         self.scans = {}
         self.filtered = {}
         self.cloud_pub = rospy.Publisher("cloud_in", PointCloud2, queue_size=5)
+        self.diagnostics = {}  # the converter's last diagnostics values
+        self.diag_sub = rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=20)
         self.tf_pub = tf2_ros.TransformBroadcaster()
         # Lazy: while nobody listens to the outputs, the converter does not subscribe to cloud_in.
         deadline = rospy.Time.now() + rospy.Duration(30.0)
@@ -124,6 +133,16 @@ class ConverterTest(unittest.TestCase):
     def on_scan(self, msg):
         with self.lock:
             self.scans[msg.header.stamp] = msg
+
+    def on_diagnostics(self, msg):
+        for status in msg.status:
+            if status.hardware_id == "/converter":  # the node's name, one converter per sensor
+                with self.lock:
+                    self.diagnostics = {kv.key: kv.value for kv in status.values}
+
+    def counter(self, key):
+        with self.lock:
+            return int(self.diagnostics.get(key, -1))
 
     def on_filtered(self, msg):
         with self.lock:
@@ -189,9 +208,16 @@ class ConverterTest(unittest.TestCase):
         for k, pitch_deg in enumerate(PITCHES_DEG):
             pitch = math.radians(pitch_deg)
             stamp = max(rospy.Time.now(), stamp + rospy.Duration(0.05))
-            self.send_tilt(pitch, stamp)
             points = render(pitch)
-            self.cloud_pub.publish(cloud_message(points, stamp, "camera_optical"))
+            if k == 3:  # the cloud before its transform: it waits for it (in the tf filter)
+                self.cloud_pub.publish(cloud_message(points, stamp, "camera_optical"))
+                rospy.sleep(0.2)  # within transform_tolerance (0.5 s)
+                self.send_tilt(pitch, stamp)
+            else:
+                self.send_tilt(pitch, stamp)
+                if k == 0:
+                    rospy.sleep(0.5)  # the transform surely there before the cloud
+                self.cloud_pub.publish(cloud_message(points, stamp, "camera_optical"))
             scan = self.wait_for(self.scans, stamp)
             self.assertIsNotNone(scan, f"no scan for the cloud with pitch {pitch_deg}")
             self.check_scan(scan, points, pitch)
@@ -236,9 +262,22 @@ class ConverterTest(unittest.TestCase):
                 self.check_scan(scan, points, pitch)
                 stamp = slash_stamp
 
+        # 10 clouds sent: 6 good, 4 malformed. Diagnostics come once a second.
+        deadline = rospy.Time.now() + rospy.Duration(10.0)
+        while self.counter("clouds received") < 10 and rospy.Time.now() < deadline:
+            rospy.sleep(0.1)
+        self.assertEqual(self.counter("clouds received"), 10)
+        in_place = self.counter("clouds read in place (no copy)")
+        if rospy.get_param("~read_in_place"):
+            self.assertGreaterEqual(in_place, 1, "the standalone node copied every cloud")
+            self.assertLess(in_place, 10, "a cloud that came before its transform cannot be converted in place")
+        else:
+            self.assertEqual(in_place, 0, "a nodelet must copy clouds: others in its manager may take the same message")
+
         # Nobody listens any more: the converter lets go of cloud_in.
         self.scan_sub.unregister()
         self.cloud_sub.unregister()
+        self.diag_sub.unregister()
         deadline = rospy.Time.now() + rospy.Duration(10.0)
         while self.cloud_pub.get_num_connections() > 0 and rospy.Time.now() < deadline:
             rospy.sleep(0.05)
