@@ -81,3 +81,14 @@ def test_measure_node_cpu_runs():
     rows = [line.split("|") for line in out.stdout.splitlines() if line.startswith("| ") and "/ 3 |" in line]
     assert len(rows) == 5, out.stdout
     assert all(row[-2].strip() == "3 / 3" and row[-3].strip().isdigit() for row in rows), out.stdout
+
+
+def test_ratio_text_gives_the_worst_case_beside_the_ratio_of_medians():
+    from measure_node_cpu import ratio_text
+    text = ratio_text([2.0, 1.9, 2.1], [0.05, 0.1, 0.2])
+    assert text.endswith(": 20.0x, at worst 10.0x"), text
+    assert "reference 2.000 ms (rounds 1.900..2.100), converter 0.100 ms (rounds 0.050..0.200)" in text
+    # A converter whose median is at or below transport: no ratio of medians, only the worst case.
+    assert ratio_text([1.0, 1.0, 1.0], [-0.02, 0.0, 0.05]).endswith(
+        ": at worst 20.0x (the converter's median is at or below transport)")
+    assert ratio_text([1.0, 1.0], [-0.1, -0.05]).endswith(": the converter cost no more than transport in any round")
