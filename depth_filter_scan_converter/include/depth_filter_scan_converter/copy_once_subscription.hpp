@@ -29,31 +29,10 @@ namespace depth_filter_scan_converter
 {
 namespace wire
 {
-/// roscpp's input stream with one change: a uint8[] field (a cloud's or an image's data) is
-/// copied once, without the zero-fill of resize(). Every other field is read by roscpp's code.
-class CopyOnceStream : public ros::serialization::IStream
-{
-public:
-  using IStream::IStream;
-
-  template <typename T>
-  void next(T& value)
-  {
-    IStream::next(value);
-  }
-
-  /// Its length, then the bytes. Throws StreamOverrunException on a short buffer, as roscpp does.
-  void next(std::vector<std::uint8_t>& bytes)
-  {
-    std::uint32_t length = 0;
-    IStream::next(length);
-    const std::uint8_t* const begin = advance(length);
-    bytes.assign(begin, begin + length);
-  }
-};
-
-/// roscpp's input stream that leaves a uint8[] field empty and remembers where its bytes are in
-/// the buffer, for a message with one such field (PointCloud2, Image: `data`).
+/// roscpp's input stream with one change: a uint8[] field (a cloud's or an image's data) is not
+/// read into its vector, which stays empty; the stream remembers where its bytes are in the
+/// buffer. For a message with one such field (PointCloud2, Image: `data`). Every other field is
+/// read by roscpp's code.
 class BorrowingStream : public ros::serialization::IStream
 {
 public:
@@ -65,7 +44,8 @@ public:
     IStream::next(value);
   }
 
-  /// Its length, then the bytes, skipped. Throws StreamOverrunException on a short buffer.
+  /// Its length, then the bytes, skipped. Throws StreamOverrunException on a short buffer, as
+  /// roscpp does.
   void next(std::vector<std::uint8_t>& bytes)
   {
     std::uint32_t length = 0;
@@ -83,14 +63,15 @@ private:
   std::size_t size_ = 0;
 };
 
-/// Reads M from `stream` in the field order of roscpp's generated serializer, its top-level
-/// uint8[] fields copied once (CopyOnceStream); the stream is left after the message.
+/// Reads M from `stream` in the field order of roscpp's generated serializer and copies its data
+/// once (no zero-fill first); the stream is left after the message.
 template <class M>
 void read(ros::serialization::IStream& stream, M& message)
 {
-  CopyOnceStream copy_once(stream.getData(), stream.getLength());
-  ros::serialization::Serializer<M>::read(copy_once, message);
-  stream.advance(stream.getLength() - copy_once.getLength());
+  BorrowingStream borrowing(stream.getData(), stream.getLength());
+  ros::serialization::Serializer<M>::read(borrowing, message);
+  message.data.assign(borrowing.bytes(), borrowing.bytes() + borrowing.size());
+  stream.advance(stream.getLength() - borrowing.getLength());
 }
 }  // namespace wire
 
@@ -120,15 +101,9 @@ public:
   ros::VoidConstPtr deserialize(const ros::SubscriptionCallbackHelperDeserializeParams& params) override
   {
     auto message = boost::make_shared<M>();
-    if (!in_place_)
-    {
-      ros::serialization::IStream stream(params.buffer, params.length);
-      wire::read(stream, *message);
-      return message;
-    }
     wire::BorrowingStream stream(params.buffer, params.length);
     ros::serialization::Serializer<M>::read(stream, *message);
-    if (in_place_(*message, stream.bytes(), stream.size()))
+    if (in_place_ && in_place_(*message, stream.bytes(), stream.size()))
       return {};
     message->data.assign(stream.bytes(), stream.bytes() + stream.size());
     return message;
