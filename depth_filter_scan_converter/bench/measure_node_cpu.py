@@ -168,6 +168,8 @@ def ratio_text(reference, converter):
     ref, conv = statistics.median(reference), statistics.median(converter)
     text = "reference %.3f ms (rounds %.3f..%.3f), converter %.3f ms (rounds %.3f..%.3f)" % (
         ref, min(reference), max(reference), conv, min(converter), max(converter))
+    if ref <= 0:
+        return text + ": the reference cost no more than transport (no ratio)"
     if max(converter) <= 0:
         return text + ": the converter cost no more than transport in any round"
     if conv <= 0:

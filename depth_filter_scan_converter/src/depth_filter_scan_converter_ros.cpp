@@ -198,16 +198,31 @@ void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message
 bool DepthFilterScanConverter::convertInPlace(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  // The checks of arrived(); a cloud that fails them takes the usual path, which reports it.
-  if (!headerProblem(cloud.header).empty())
-    return false;
-  const tf2::BufferCore& transforms = tf_buffer_;
-  if (!transforms.canTransform(params_.transform.reference_frame, laserscan_common::tf2FrameId(cloud.header.frame_id),
-                               cloud.header.stamp))
-    return false;
+  const std::string problem = headerProblem(cloud.header);
+  if (problem.empty())
+  {
+    // Without its transform yet, the cloud must wait in the tf filter: copied, the usual path.
+    const tf2::BufferCore& transforms = tf_buffer_;
+    if (!transforms.canTransform(params_.transform.reference_frame, laserscan_common::tf2FrameId(cloud.header.frame_id),
+                                 cloud.header.stamp))
+      return false;
+  }
   ++received_;
   ++read_in_place_;
-  convert(cloud, bytes, size, Arrival{});
+  if (!problem.empty())
+  {
+    dropMalformed(problem, cloud.header.frame_id);  // as arrived() would, without copying it first
+    return true;
+  }
+  try
+  {
+    convert(cloud, bytes, size, Arrival{});
+  }
+  catch (const std::exception& e)
+  {
+    // Out of roscpp's deserialiser, it would be logged as a message that could not be read.
+    dropMalformed(std::string("conversion failed: ") + e.what(), cloud.header.frame_id);
+  }
   return true;
 }
 

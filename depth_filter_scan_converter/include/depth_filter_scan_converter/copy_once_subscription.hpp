@@ -1,4 +1,4 @@
-// Subscriptions to clouds and depth images that copy each message's bytes once.
+// Subscriptions to clouds and depth images that copy each message's bytes at most once.
 //
 // roscpp deserialises a uint8[] field with resize() then memcpy: resize() zero-fills the whole
 // buffer first, a second pass over every cloud or image that costs as much as the copy (about
@@ -63,16 +63,6 @@ private:
   std::size_t size_ = 0;
 };
 
-/// Reads M from `stream` in the field order of roscpp's generated serializer and copies its data
-/// once (no zero-fill first); the stream is left after the message.
-template <class M>
-void read(ros::serialization::IStream& stream, M& message)
-{
-  BorrowingStream borrowing(stream.getData(), stream.getLength());
-  ros::serialization::Serializer<M>::read(borrowing, message);
-  message.data.assign(borrowing.bytes(), borrowing.bytes() + borrowing.size());
-  stream.advance(stream.getLength() - borrowing.getLength());
-}
 }  // namespace wire
 
 /// Takes a message straight from roscpp's receive buffer, in the thread that would run its

@@ -99,9 +99,9 @@ private:
   template <class M>
   void transformFailed(const boost::shared_ptr<const M>& message,
                        tf2_ros::filter_failure_reasons::FilterFailureReason reason);
-  /// CloudReading::InPlace: converts a cloud whose bytes are still in roscpp's receive buffer
-  /// if it can be converted now (a usable header, its transform there); false leaves it to the
-  /// usual path (arrived), copied.
+  /// CloudReading::InPlace: takes a cloud whose bytes are still in roscpp's receive buffer and
+  /// converts it (or drops it for a header that cannot reach tf2) if its transform is there; false
+  /// leaves it to the usual path (arrived), copied, to wait for its transform.
   bool convertInPlace(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size);
   /// Both inputs, from the tf filter once the transform is there.
   template <class M>
