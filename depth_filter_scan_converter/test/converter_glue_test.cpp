@@ -215,16 +215,26 @@ TEST(InPlaceReader, SeesTheMessageWithItsBytesInTheReceiveBuffer)
   EXPECT_EQ(wireBytes(seen), bytes);
 }
 
+namespace
+{
+// A cloud subscription's helper whose in-place reader counts the clouds offered to it and takes
+// them when `take`.
+dfsc::CopyOnceCallbackHelper<sensor_msgs::PointCloud2> countingHelper(int& offered, bool take)
+{
+  const std::function<void(const sensor_msgs::PointCloud2ConstPtr&)> on_cloud = [](const auto&) {};
+  return dfsc::CopyOnceCallbackHelper<sensor_msgs::PointCloud2>(
+    on_cloud, [&offered, take](const sensor_msgs::PointCloud2&, const std::uint8_t*, std::size_t) {
+      ++offered;
+      return take;
+    });
+}
+}  // namespace
+
 TEST(InPlaceReader, AMessageItDoesNotTakeIsDeliveredWhole)
 {
   std::vector<std::uint8_t> bytes = wireBytes(someCloud());
-  const std::function<void(const sensor_msgs::PointCloud2ConstPtr&)> on_cloud = [](const auto&) {};
   int offered = 0;
-  dfsc::CopyOnceCallbackHelper<sensor_msgs::PointCloud2> helper(
-    on_cloud, [&](const sensor_msgs::PointCloud2&, const std::uint8_t*, std::size_t) {
-      ++offered;
-      return false;
-    });
+  auto helper = countingHelper(offered, false);
   const auto message = boost::static_pointer_cast<const sensor_msgs::PointCloud2>(deserializeWith(helper, bytes));
   EXPECT_EQ(offered, 1);
   ASSERT_NE(message, nullptr);
@@ -235,13 +245,8 @@ TEST(InPlaceReader, AShortBufferThrowsBeforeTheReaderSeesIt)
 {
   const std::vector<std::uint8_t> whole = wireBytes(someCloud());
   std::vector<std::uint8_t> part(whole.begin(), whole.end() - 20);  // cut inside the data
-  const std::function<void(const sensor_msgs::PointCloud2ConstPtr&)> on_cloud = [](const auto&) {};
   int offered = 0;
-  dfsc::CopyOnceCallbackHelper<sensor_msgs::PointCloud2> helper(
-    on_cloud, [&](const sensor_msgs::PointCloud2&, const std::uint8_t*, std::size_t) {
-      ++offered;
-      return true;
-    });
+  auto helper = countingHelper(offered, true);
   EXPECT_THROW(deserializeWith(helper, part), ros::serialization::StreamOverrunException);
   EXPECT_EQ(offered, 0);
 }
