@@ -169,19 +169,12 @@ void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++received_;
-    // Checked before tf2 sees the header: tf2 adds durations to the stamp (roscpp throws past
-    // 2^32 s, which would abort the whole manager) and warns without throttle on bad frame ids.
-    const std::string problem = headerProblem(message->header);
-    if (!problem.empty())
-    {
-      dropMalformed(problem, message->header.frame_id);
+    const Admission admission = admit(message->header);
+    if (admission == Admission::Dropped)
       return;
-    }
     // The usual case, the transform already there: convert now, without the filter's extra trip
     // through the callback queue (and its second tf query).
-    const tf2::BufferCore& transforms = tf_buffer_;
-    if (transforms.canTransform(params_.transform.reference_frame,
-                                laserscan_common::tf2FrameId(message->header.frame_id), message->header.stamp))
+    if (admission == Admission::Ready)
     {
       convert(*message, message->data.data(), message->data.size(), Arrival{ message, ros::Time(), info });
       return;
@@ -195,33 +188,42 @@ void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message
   filter.add(message);
 }
 
+DepthFilterScanConverter::Admission DepthFilterScanConverter::admit(const std_msgs::Header& header)
+{
+  // Checked before tf2 sees the header: tf2 adds durations to the stamp (roscpp throws past
+  // 2^32 s, which would abort the whole manager) and warns without throttle on bad frame ids.
+  const std::string problem = headerProblem(header);
+  if (!problem.empty())
+  {
+    dropMalformed(problem, header.frame_id);
+    return Admission::Dropped;
+  }
+  const tf2::BufferCore& transforms = tf_buffer_;
+  return transforms.canTransform(params_.transform.reference_frame, laserscan_common::tf2FrameId(header.frame_id),
+                                 header.stamp)
+           ? Admission::Ready
+           : Admission::Wait;
+}
+
 bool DepthFilterScanConverter::convertInPlace(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  const std::string problem = headerProblem(cloud.header);
-  if (problem.empty())
-  {
-    // Without its transform yet, the cloud must wait in the tf filter: copied, the usual path.
-    const tf2::BufferCore& transforms = tf_buffer_;
-    if (!transforms.canTransform(params_.transform.reference_frame, laserscan_common::tf2FrameId(cloud.header.frame_id),
-                                 cloud.header.stamp))
-      return false;
-  }
+  const Admission admission = admit(cloud.header);
+  if (admission == Admission::Wait)
+    return false;  // it must wait in the tf filter: copied, the usual path
   ++received_;
   ++read_in_place_;
-  if (!problem.empty())
+  if (admission == Admission::Ready)
   {
-    dropMalformed(problem, cloud.header.frame_id);  // as arrived() would, without copying it first
-    return true;
-  }
-  try
-  {
-    convert(cloud, bytes, size, Arrival{});
-  }
-  catch (const std::exception& e)
-  {
-    // Out of roscpp's deserialiser, it would be logged as a message that could not be read.
-    dropMalformed(std::string("conversion failed: ") + e.what(), cloud.header.frame_id);
+    try
+    {
+      convert(cloud, bytes, size, Arrival{});
+    }
+    catch (const std::exception& e)
+    {
+      // Out of roscpp's deserialiser, it would be logged as a message that could not be read.
+      dropMalformed(std::string("conversion failed: ") + e.what(), cloud.header.frame_id);
+    }
   }
   return true;
 }

@@ -123,6 +123,15 @@ private:
   bool takeArrival(const void* message, Arrival& arrival);
   /// Why the header cannot reach tf2 ("" when it can); warns once about a leading '/'.
   std::string headerProblem(const std_msgs::Header& header);
+  /// What a new input's header allows (mutex_ held): dropped as malformed (counted and warned
+  /// here), converted now (its transform is there), or waiting for its transform.
+  enum class Admission
+  {
+    Dropped,
+    Ready,
+    Wait
+  };
+  Admission admit(const std_msgs::Header& header);
   /// Counts a malformed message and warns, throttled per kind of defect.
   void dropMalformed(const std::string& reason, const std::string& frame_id);
 
