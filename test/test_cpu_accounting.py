@@ -170,3 +170,135 @@ def test_window_with_processes_started_and_ended_inside():
     assert d["per_process"] == {"a[10]": 0.5, "new[12]": 0.25, "recycled[11]": 1.0}
     assert d["total_s"] == pytest.approx(1.75)
     assert d["lost"] == ["gone[11]"]
+
+
+# ---------------------------------------------------------------- what a robot pays, and /clock
+
+def _serialized(msg):
+    import io
+    b = io.BytesIO()
+    msg.serialize(b)
+    return b.getvalue()
+
+
+def _scan(secs, nsecs):
+    from sensor_msgs.msg import LaserScan
+    m = LaserScan()
+    m.header.seq, m.header.frame_id = 7, "laser"
+    m.header.stamp.secs, m.header.stamp.nsecs = secs, nsecs
+    m.ranges = [1.0, 2.0]
+    return m
+
+
+def _read(cls, raw):
+    m = cls()
+    m.deserialize(raw)
+    return m
+
+
+def test_header_stamps_are_moved_by_the_offset_with_carry():
+    from sensor_msgs.msg import LaserScan
+    from laserscan_toolbox.ros import wall_clock_play as wcp
+    raw = _serialized(_scan(1000, 999_999_000))
+    out = _read(LaserScan, wcp.shift_header_stamp(raw, 1_000_002_000))  # 1 s + 2 us
+    assert (out.header.stamp.secs, out.header.stamp.nsecs) == (1002, 1000)  # nsecs carried
+    assert out.header.seq == 7 and out.header.frame_id == "laser" and list(out.ranges) == [1, 2]
+    back = _read(LaserScan, wcp.shift_header_stamp(raw, -999_000))
+    assert (back.header.stamp.secs, back.header.stamp.nsecs) == (1000, 999_000_000)
+
+
+def test_zero_stamps_and_stamps_the_offset_would_carry_out_of_ros_time_stay():
+    from laserscan_toolbox.ros import wall_clock_play as wcp
+    for secs, nsecs, offset in ((0, 0, 10 ** 18), (2 ** 32 - 2, 0, 5 * 10 ** 9), (3, 0, -4 * 10 ** 9)):
+        raw = _serialized(_scan(secs, nsecs))
+        assert wcp.shift_header_stamp(raw, offset) == raw, (secs, offset)
+
+
+def test_every_transform_of_a_tf_message_is_moved():
+    from geometry_msgs.msg import TransformStamped
+    from tf2_msgs.msg import TFMessage
+    from laserscan_toolbox.ros import wall_clock_play as wcp
+    msg = TFMessage()
+    for i, (parent, child) in enumerate((("odom", "base_link"), ("base_link", "a_longer_frame_name"),
+                                         ("base_link", "static_at_zero"))):
+        t = TransformStamped()
+        t.header.frame_id, t.child_frame_id = parent, child
+        t.header.stamp.secs = 0 if child == "static_at_zero" else 50 + i
+        t.transform.translation.x, t.transform.rotation.w = 0.5 + i, 1.0
+        msg.transforms.append(t)
+    raw = _serialized(msg)
+    out = _read(TFMessage, wcp.shift_tf_stamps(raw, 10 * 10 ** 9))
+    assert [t.header.stamp.secs for t in out.transforms] == [60, 61, 0]
+    assert [t.child_frame_id for t in out.transforms] == ["base_link", "a_longer_frame_name",
+                                                          "static_at_zero"]
+    assert [t.transform.translation.x for t in out.transforms] == [0.5, 1.5, 2.5]
+    with pytest.raises(ValueError):
+        wcp.shift_tf_stamps(raw[:-8], 1)  # the last transform cut short
+    assert wcp.stamp_shifter("tf2_msgs/TFMessage", False) is wcp.shift_tf_stamps
+    assert wcp.stamp_shifter("sensor_msgs/Image", True) is wcp.shift_header_stamp
+    assert wcp.stamp_shifter("std_msgs/String", False) is None
+
+
+def _figures(**percent):
+    return {name: {"cpu_percent": p, "cpu_seconds": p / 10.0, "rss_mb": 20.0}
+            for name, p in percent.items()}
+
+
+MGR, LOAD_A, LOAD_B, NODE = ("pipeline_manager (manager)", "merger (loader)",
+                             "converter (loader)", "static_tf")
+
+
+def test_cpu_stats_reports_the_wall_time_figures_by_role_and_the_clock_share():
+    from laserscan_toolbox.evaluation.analysis import cpu_stats
+    sim = _figures(**{MGR: 8.0, LOAD_A: 2.0, LOAD_B: 2.25, NODE: 1.0})
+    wall = _figures(**{MGR: 6.5, LOAD_A: 0.25, LOAD_B: 0.5, NODE: 1.25})
+    per, summary = cpu_stats(sim, wall)
+    assert summary["clock"] == "wall"
+    assert {n: c["cpu_percent"] for n, c in per.items()} == {MGR: 6.5, LOAD_A: 0.25, LOAD_B: 0.5,
+                                                           NODE: 1.25}
+    assert {n: c["role"] for n, c in per.items()} == {MGR: "manager", LOAD_A: "loader",
+                                                    LOAD_B: "loader", NODE: "node"}
+    assert per[LOAD_A]["sim_clock_cpu_percent"] == 2.0
+    assert per[LOAD_A]["clock_share_percent"] == pytest.approx(1.75)
+    assert per[NODE]["clock_share_percent"] == pytest.approx(-0.25)  # noise keeps its sign
+    assert summary["by_role"] == pytest.approx({"manager": 6.5, "loader": 0.75, "node": 1.25})
+    assert summary["processes"] == {"manager": 1, "loader": 2, "node": 1}
+    assert summary["total_percent"] == pytest.approx(8.5)
+    assert summary["sim_clock_total_percent"] == pytest.approx(13.25)
+    assert summary["clock_share_percent"] == pytest.approx(13.25 - 8.5)
+    assert summary["missing_on_wall_time"] == []
+
+
+def test_cpu_stats_without_a_replay_or_at_another_rate_gives_no_clock_share():
+    from laserscan_toolbox.evaluation.analysis import cpu_stats
+    sim = _figures(**{MGR: 8.0, LOAD_A: 2.0})
+    per, summary = cpu_stats(sim)
+    assert summary["clock"] == "sim" and summary["total_percent"] == pytest.approx(10.0)
+    assert summary["clock_share_percent"] is None and per[MGR]["clock_share_percent"] is None
+    # played at rate 2 under /clock, replayed at rate 1: twice the work per second, no share
+    per, summary = cpu_stats(sim, _figures(**{MGR: 4.0}), rate=2.0)
+    assert summary["clock"] == "wall" and summary["clock_share_percent"] is None
+    assert per[MGR]["clock_share_percent"] is None and per[MGR]["sim_clock_cpu_percent"] == 8.0
+    # a loader that ended before the replay is named, not summed
+    assert summary["missing_on_wall_time"] == [LOAD_A] and summary["total_percent"] == 4.0
+
+
+def test_process_roles_follow_the_tags_of_process_names():
+    from laserscan_toolbox.ros.rosrun import LOADER_TAG, MANAGER_TAG, process_role
+    assert process_role("laser_manager" + MANAGER_TAG) == "manager"
+    assert process_role("front_converter" + LOADER_TAG) == "loader"
+    assert process_role("merger_node") == "node"
+    assert process_role("loader") == "node"  # a node named so is no loader client
+
+
+def test_wall_time_replay_overrides_use_sim_time_where_the_launch_declares_it(tmp_path):
+    from laserscan_toolbox.evaluation.playback import wall_time_args
+    declares = tmp_path / "declares.launch"
+    declares.write_text('<launch><arg name="use_sim_time" default="true"/>'
+                        '<arg name="other" default="1"/></launch>')
+    silent = tmp_path / "silent.launch"
+    silent.write_text('<launch><arg name="other" default="1"/></launch>')
+    assert wall_time_args(str(declares), ["use_sim_time:=true", "other:=2"]) == \
+        ["other:=2", "use_sim_time:=false"]
+    # roslaunch refuses an argument the file does not declare: the master's parameter does it
+    assert wall_time_args(str(silent), ["other:=2"]) == ["other:=2"]

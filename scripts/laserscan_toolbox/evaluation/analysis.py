@@ -9,6 +9,8 @@
   the ideal scan (median, p95), false and missed obstacles, coverage, glass found, per scan
   topic (``ground_truth_stats``, ``glass_stats``);
 - without: one moment of every scan for a plot (``scan_snapshot``);
+- CPU per process and by role, as a robot on wall time pays it and under the simulated
+  clock (``cpu_stats``);
 - the thresholds of evaluate_bag's options (``THRESHOLDS``, ``check_thresholds``).
 """
 
@@ -18,6 +20,7 @@ import os
 import numpy as np
 
 from . import metrics
+from ..ros.rosrun import ROLES, process_role
 from .playback import SKIP_TOPICS, bag_scans
 
 BASE_FRAME = "base_link"
@@ -366,6 +369,41 @@ THRESHOLDS = [
     ("max_dropped", "dropped_fraction", "<=", "outputs", "dropped input fraction (0..1)"),
     ("min_coverage", "coverage", ">=", "outputs", "fraction of beams with a return"),
 ]
+
+
+def cpu_stats(sim_clock, wall=None, rate=1.0):
+    """The evaluation's CPU figures: (per process, summary).
+
+    sim_clock: figures per process (``CpuMeter.figures``: cpu_percent, cpu_seconds, rss_mb)
+    under rosbag's /clock; wall: those of the same data replayed on wall time
+    (``run_pipeline_on_wall_time``), what a robot pays, or None when there was no such replay.
+    Per process: "cpu_percent" is the wall-time figure (the simulated-time one without a
+    replay), "role" (``rosrun.process_role``), "sim_clock_cpu_percent", and
+    "clock_share_percent" = under /clock minus on wall time, when both ran at rate 1 (else
+    None: the simulated-time run then did more or less work per second). A process measured
+    under /clock only (it ended before the replay) is listed in the summary's
+    "missing_on_wall_time", not summed. Summary: "clock" ("wall" or "sim": what cpu_percent
+    was measured on), "total_percent", "by_role" and "processes" (percent and count per role),
+    "sim_clock_total_percent", "clock_share_percent"."""
+    source = wall if wall is not None else sim_clock
+    comparable = wall is not None and rate == 1.0
+    per = {}
+    for name, c in source.items():
+        sim = sim_clock.get(name, {}).get("cpu_percent")
+        per[name] = dict(c, role=process_role(name), sim_clock_cpu_percent=sim,
+                         clock_share_percent=(sim - c["cpu_percent"]) if comparable and
+                         sim is not None else None)
+    by_role = {r: sum(c["cpu_percent"] for c in per.values() if c["role"] == r) for r in ROLES}
+    summary = {"clock": "wall" if wall is not None else "sim",
+               "total_percent": sum(by_role.values()), "by_role": by_role,
+               "processes": {r: sum(1 for c in per.values() if c["role"] == r) for r in ROLES},
+               "sim_clock_total_percent": sum(c["cpu_percent"] for c in sim_clock.values()),
+               "clock_share_percent": None,
+               "missing_on_wall_time": sorted(set(sim_clock) - set(per))}
+    if comparable:
+        summary["clock_share_percent"] = sum(c["clock_share_percent"] for c in per.values()
+                                             if c["clock_share_percent"] is not None)
+    return per, summary
 
 
 def check_thresholds(results, options, topics):

@@ -14,14 +14,16 @@ import time
 import numpy as np
 
 from . import metrics, report
-from ..ros.rosrun import REPO, RunError, Session
-from .analysis import (BASE_FRAME, THRESHOLDS, band_from_configs, check_thresholds,
+from ..ros.rosrun import CLOCK_HZ, REPO, RunError, Session
+from .analysis import (BASE_FRAME, THRESHOLDS, band_from_configs, check_thresholds, cpu_stats,
                        default_threshold_topics, glass_stats, ground_truth_stats, input_stats,
                        output_stats, scan_snapshot)
 from .playback import (DEFAULT_LAUNCH, BagError, bag_scans, inspect_bag, run_pipeline,
-                       save_scan_records)
+                       run_pipeline_on_wall_time, save_scan_records)
 
 GROUND_TRUTH_TOPIC = "/scenario"
+#: Seconds of the bag replayed on wall time for the CPU a robot pays (evaluate_bag --cpu-replay).
+CPU_REPLAY_S = 10.0
 
 
 # SLAM targets (--slam): options of laserscan_toolbox.evaluation.slam.check_targets' targets
@@ -44,9 +46,12 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
              band=None, tol=0.05, beam_window=1, max_scans=300, plots=True, workdir=None,
              rel_tol=0.03,
              log=print, map_topics=("/lidar_scan", "/slam_scan", "/merged_scan"), map_resolution=0.05,
-             save_scans=False, slam=False, slam_targets=None, slam_seed=0):
+             save_scans=False, slam=False, slam_targets=None, slam_seed=0, cpu_replay=CPU_REPLAY_S):
     """Runs everything and writes results.json (+ report.md and plots when ``plots``).
 
+    cpu_replay: seconds of the bag (from its start) played once more on wall time, without
+    /clock, for the CPU figures (``measure_cpu``); 0: none, the CPU figures are then those
+    under the simulated clock.
     slam: also run the SLAM and localization experiment (``evaluation.slam``) on the first
     two ``map_topics`` (lidar-only, unified); slam_targets: its targets (``slam.TARGETS``'
     keys) joined to the thresholds."""
@@ -61,18 +66,29 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
     args = list(launch_args)
     if config_dir:
         args.append("config_dir:=%s" % os.path.abspath(config_dir))
+    window = min(cpu_replay, info["end"] - info["start"]) if cpu_replay > 0 else None
+    label = os.path.splitext(os.path.basename(bag))[0]
     with Session(workdir=workdir) as session:
         try:
             run = run_pipeline(session, info, launch_file, args, rate=rate, progress=progress,
-                               label=os.path.splitext(os.path.basename(bag))[0])
+                               label=label, cpu_window=window)
+            wall = None
+            if window:
+                log("replaying the bag's first %.1f s on wall time (no /clock) for the CPU a "
+                    "robot pays" % window)
+                wall = run_pipeline_on_wall_time(
+                    session, info, launch_file, args, duration=window, label=label + "_wall",
+                    topics={t: d["type"] for t, d in run["records"].items()})
         except RunError as e:
             session.keep = True  # the logs say why (a node that died, a bad config)
             raise RunError("%s\n(logs kept in %s)" % (e, session.workdir))
+    cpu, cpu_summary = measure_cpu(run, wall, rate)
     results = {"bag": info["path"], "bag_duration_s": info["end"] - info["start"],
                "bag_size_bytes": info["size"], "launch": run["launch"],
                "player": run["player"], "ground_truth": scenario is not None,
                "inputs": input_stats(info),
-               "outputs": output_stats(run, info), "cpu": run["cpu"],
+               "outputs": output_stats(run, info), "cpu": cpu, "cpu_summary": cpu_summary,
+               "cpu_whole_playback_sim_clock": run["cpu"],
                "playback_wall_s": run["wall"], "unrecorded_outputs":
                    {t: ty for t, ty in run["outputs"].items() if t not in run["records"]}}
     examples = {}
@@ -128,6 +144,29 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
         if plots:
             report.write_report(results, examples, run, output)
     return results
+
+
+def measure_cpu(run, wall, rate):
+    """CPU per process and summary (``analysis.cpu_stats``) from the simulated-time run and the
+    wall-time replay (None: not replayed). A replay in which no recorded output published
+    anything (a launch that forces use_sim_time, say) is not what a robot pays: its figures are
+    left out and the summary says why."""
+    sim = run.get("cpu_window", run["cpu"])
+    problem = None
+    if wall is not None:
+        produced = any(d["stamp"] for d in run["records"].values())
+        if produced and not any(d["stamp"] for d in wall["records"].values()):
+            problem = ("no output on wall time (does the launch set /use_sim_time true "
+                       "whatever its arguments?): CPU under the simulated clock instead")
+            wall = None
+    per, summary = cpu_stats(sim, wall["cpu"] if wall else None, rate)
+    summary.update(window_s=run.get("cpu_window_s"), rate=rate, clock_hz=CLOCK_HZ,
+                   wall_replay_problem=problem)
+    if wall is not None:
+        summary.update(wall_replay_player=wall["player"], wall_replay_data_s=wall["data_s"],
+                       wall_replay_stamp_offset_s=wall["stamp_offset_s"],
+                       wall_replay_outputs={t: len(d["stamp"]) for t, d in wall["records"].items()})
+    return per, summary
 
 
 def run_mapping(run, info, scenario, results, map_topics, outdir, resolution=0.05,
@@ -254,7 +293,13 @@ def main(argv=None):
     for opt, _, _, _, hlp in THRESHOLDS:
         p.add_argument("--" + opt.replace("_", "-"), type=float, help="threshold: " + hlp)
     p.add_argument("--max-cpu", type=float,
-                   help="threshold: CPU of all launched processes, percent of one core")
+                   help="threshold: CPU of all launched processes, percent of one core (on wall "
+                        "time, see --cpu-replay)")
+    p.add_argument("--cpu-replay", type=float, default=CPU_REPLAY_S, metavar="S",
+                   help="replay the bag's first S seconds once more on wall time (no /clock, "
+                        "use_sim_time false, stamps moved to now) for the CPU a robot pays "
+                        "(default %g; 0: none, CPU then under rosbag's %d Hz /clock, which "
+                        "every ROS process pays)" % (CPU_REPLAY_S, CLOCK_HZ))
     try:
         a = p.parse_args(argv)
     except SystemExit as e:
@@ -271,6 +316,9 @@ def main(argv=None):
     if a.config and not os.path.isdir(a.config):
         print("evaluate_bag: %s: no such folder" % a.config, file=sys.stderr)
         return 2
+    if a.cpu_replay < 0:
+        print("evaluate_bag: --cpu-replay must be >= 0", file=sys.stderr)
+        return 2
     if a.slam and not a.output:
         print("evaluate_bag: --slam needs --output", file=sys.stderr)
         return 2
@@ -284,7 +332,8 @@ def main(argv=None):
                        a.max_scans, plots=not a.no_plots,
                        log=lambda m: print(m, file=sys.stderr), map_topics=a.map_topics,
                        save_scans=a.save_scans, rel_tol=a.relative_tolerance, slam=a.slam,
-                       slam_targets=slam_targets if a.slam else None, slam_seed=a.slam_seed)
+                       slam_targets=slam_targets if a.slam else None, slam_seed=a.slam_seed,
+                       cpu_replay=a.cpu_replay)
     except BagError as e:
         print("evaluate_bag: %s" % e, file=sys.stderr)
         return 2

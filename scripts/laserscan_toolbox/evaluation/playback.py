@@ -17,7 +17,8 @@ import time
 import numpy as np
 
 from ..ros.cpu_accounting import process_cpu_s
-from ..ros.rosrun import REPO, BagPlayer, CpuMeter, RunError, log_tail, own_node_name, wait_connected
+from ..ros.rosrun import (REPO, BagPlayer, CpuMeter, RunError, WallClockPlayer, log_tail, own_node_name,
+                          wait_connected)
 
 DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
 SKIP_TOPICS = {"/rosout", "/rosout_agg", "/clock", "/tf", "/tf_static", "/diagnostics"}
@@ -153,11 +154,14 @@ class Recorder:
 
 
 def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progress=True,
-                 record_types=("sensor_msgs/LaserScan",), label="run", tail=1.5, select=None):
+                 record_types=("sensor_msgs/LaserScan",), label="run", tail=1.5, select=None,
+                 cpu_window=None):
     """One playback through one launch. Returns the raw records (no analysis).
 
     select(topic, type) says which of the launch's outputs to record (default: those
-    whose type is in record_types)."""
+    whose type is in record_types). cpu_window (s): also the CPU over the bag's first
+    cpu_window seconds of data alone ("cpu_window": figures per process, "cpu_window_s"), to
+    set beside ``run_pipeline_on_wall_time``'s figures of the same data."""
     if select is None:
         def select(topic, type_):
             return type_ in record_types
@@ -195,7 +199,24 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
                         if select(topic, outputs[topic]):
                             rec.add({topic: outputs[topic]})
 
-            _wait_playback(player, bag_info, progress, label, late_outputs)
+            window = {}
+
+            def mark_window(t):
+                # the window opens at the bag's first data and closes cpu_window s later
+                if "start" not in window and t >= bag_info["start"]:
+                    window["start"] = (t, cpu.snapshot())
+                elif "start" in window and "end" not in window and \
+                        t >= bag_info["start"] + cpu_window:
+                    window["end"] = (t, cpu.snapshot())
+
+            _wait_playback(player, bag_info, progress, label, late_outputs,
+                           mark_window if cpu_window else None)
+            extra = {}
+            if cpu_window and "start" in window:
+                (t0, before), (t1, after) = window["start"], window.get(
+                    "end", (rospy_time(), cpu.snapshot()))  # a bag shorter than the window
+                extra = {"cpu_window": cpu.figures(before, after, (t1 - t0) / rate),
+                         "cpu_window_s": t1 - t0}
             time.sleep(tail)  # outputs of the last inputs are still on their way
             cpu_res, wall = cpu.stop()
             own_cpu = process_cpu_s(os.getpid()) - own0
@@ -210,13 +231,92 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
             return {"outputs": outputs, "publishers": pubs, "records": rec.data, "cpu": cpu_res,
                     "static_tf": list(rec.static_tf.values()), "diagnostics": dict(rec.diagnostics),
                     "consumer_cpu_percent": 100.0 * own_cpu / data_s,
-                    "wall": wall, "launch": launch.cmd, "player": player.cmd}
+                    "wall": wall, "launch": launch.cmd, "player": player.cmd, "clock": "sim",
+                    **extra}
         finally:
             if rec is not None:
                 rec.close()
 
 
-def _wait_playback(player, bag_info, progress, label, poll=None):
+def wall_time_args(launch_file, launch_args):
+    """launch_args with ``use_sim_time:=false`` in place of any use_sim_time given, when the
+    launch file declares that argument (a launch that does not leaves /use_sim_time to the
+    master, which ``run_pipeline_on_wall_time`` sets false)."""
+    import xml.etree.ElementTree as ET
+    args = [a for a in launch_args if not a.startswith("use_sim_time:=")]
+    try:
+        root = ET.parse(launch_file).getroot()
+    except (ET.ParseError, OSError):
+        return args
+    if any(e.get("name") == "use_sim_time" for e in root.findall("arg")):
+        args.append("use_sim_time:=false")
+    return args
+
+
+def run_pipeline_on_wall_time(session, bag_info, launch_file, launch_args=(), duration=None,
+                              record_types=("sensor_msgs/LaserScan",), label="wall", select=None,
+                              topics=None):
+    """The bag's first ``duration`` seconds (all of it when None) through the launch on wall
+    time, as on a robot: use_sim_time false, no /clock, stamps moved to now
+    (``ros.wall_clock_play``). For the CPU a robot pays: every roscpp and rospy process takes
+    /clock under simulated time, which the robot does not pay.
+
+    Records the outputs chosen by ``topics`` ({topic: type}) or else by select / record_types
+    as run_pipeline does (a consumer subscribed as in the simulated-time run, so that the
+    nodes publish the same). Returns run_pipeline's keys ("clock": "wall"; "stamp_offset_s",
+    what was added to every stamp; "cpu" is measured over the playback alone, from the first
+    message to the last, per second of the data played, "data_s")."""
+    if select is None:
+        def select(topic, type_):
+            return type_ in record_types
+    master = session.master.master
+    master.setParam("/use_sim_time", False)  # for the nodes of a launch that does not set it
+    rec = None
+    try:
+        with session.launched(launch_file, wall_time_args(launch_file, launch_args),
+                              label) as (launch, pubs):
+            types = dict(master.getTopicTypes())
+            outputs = {t: types.get(t, "?") for t in pubs if t not in SKIP_TOPICS}
+            to_record = topics if topics is not None else {
+                t: ty for t, ty in outputs.items() if select(t, ty)}
+            rec = Recorder(to_record)
+            wait_connected(rec.subs)
+            cpu = CpuMeter(launch.processes())
+            player = WallClockPlayer(bag_info["path"], os.path.join(session.workdir, label + "_play.log"),
+                                     duration)
+            own0 = process_cpu_s(os.getpid())
+            try:
+                player.start()
+                t0, before = time.time(), cpu.snapshot()
+                player.wait(timeout=bag_info["end"] - bag_info["start"] + 60.0)
+                seconds, after = time.time() - t0, cpu.snapshot()
+            finally:
+                player.stop()
+            own_cpu = process_cpu_s(os.getpid()) - own0
+            rec.close()
+            launch.raise_if_stopped()
+            # per second of data, as run_pipeline: the player may fall a little behind
+            data_s = max(player.data_s, 1e-9)
+            return {"outputs": outputs, "publishers": pubs, "records": rec.data,
+                    "cpu": cpu.figures(before, after, data_s), "data_s": data_s,
+                    "static_tf": list(rec.static_tf.values()), "diagnostics": dict(rec.diagnostics),
+                    "consumer_cpu_percent": 100.0 * own_cpu / data_s, "wall": seconds,
+                    "launch": launch.cmd, "player": player.cmd, "clock": "wall",
+                    "stamp_offset_s": player.offset_s, "messages_played": player.sent}
+    finally:
+        if rec is not None:
+            rec.close()
+        master.setParam("/use_sim_time", True)
+
+
+def rospy_time():
+    import rospy
+    return rospy.get_time()
+
+
+def _wait_playback(player, bag_info, progress, label, poll=None, on_clock=None):
+    """Waits for the end of playback; poll() about once a second, on_clock(bag clock) every
+    few ms while on_clock is given (else every 0.2 s)."""
     import rospy
     duration = max(bag_info["end"] - bag_info["start"], 1e-3)
     bar = None
@@ -228,7 +328,9 @@ def _wait_playback(player, bag_info, progress, label, poll=None):
     done = 0.0
     last_poll = 0.0
     while player.running():
-        time.sleep(0.2)
+        time.sleep(0.02 if on_clock else 0.2)
+        if on_clock is not None:
+            on_clock(rospy.get_time())
         if poll is not None and time.time() - last_poll > 1.0:
             poll()
             last_poll = time.time()

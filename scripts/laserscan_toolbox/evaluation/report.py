@@ -111,12 +111,60 @@ def stamps_ahead_note(results):
     return lines + [""]
 
 
+ROLE_LABELS = {"manager": "nodelet manager", "loader": "nodelet loader clients",
+               "node": "other processes"}
+
+
 def cpu_table(results):
-    rows = [[n, fmt(c["cpu_percent"]), fmt(c["rss_mb"])]
-            for n, c in sorted(results["cpu"].items())]
-    total = sum(c["cpu_percent"] for c in results["cpu"].values())
-    rows.append(["**all launched processes**", "**%s**" % fmt(total), ""])
-    return table(["process", "CPU % of one core", "memory MB"], rows)
+    """Per process and per role: the CPU a robot pays (wall-time replay) beside that under
+    rosbag's /clock and the difference (``analysis.cpu_stats``)."""
+    cpu = results["cpu"]
+    summary = results.get("cpu_summary", {})
+    wall = summary.get("clock") == "wall"
+    rows = [[n, fmt(c["cpu_percent"]), fmt(c.get("sim_clock_cpu_percent")),
+             fmt(c.get("clock_share_percent")), fmt(c["rss_mb"])] for n, c in sorted(cpu.items())]
+    for role, label in ROLE_LABELS.items():
+        n = summary.get("processes", {}).get(role)
+        if n:
+            members = [c for c in cpu.values() if c.get("role") == role]
+            rows.append(["%s (%d)" % (label, n), fmt(summary["by_role"][role]),
+                         fmt(sum(c.get("sim_clock_cpu_percent") or 0 for c in members)),
+                         fmt(sum(c.get("clock_share_percent") or 0 for c in members)
+                             if summary.get("clock_share_percent") is not None else None), ""])
+    total = sum(c["cpu_percent"] for c in cpu.values())
+    rows.append(["**all launched processes**", "**%s**" % fmt(total),
+                 fmt(summary.get("sim_clock_total_percent")),
+                 fmt(summary.get("clock_share_percent")), ""])
+    return table(["process", "CPU %% of one core, %s" % ("on wall time (what a robot pays)" if wall
+                                                      else "under the simulated clock"),
+                  "under rosbag's /clock", "/clock share", "memory MB"], rows)
+
+
+def cpu_section(results):
+    summary = results.get("cpu_summary", {})
+    lines = ["## CPU", ""]
+    if summary.get("clock") == "wall":
+        lines.append(
+            "CPU seconds per second of bag data, in percent of one core, of every process the "
+            "launch started, on the bag's first %.1f s. First column: replayed on wall time as a "
+            "robot runs (use_sim_time false, no /clock, every stamp moved to now: "
+            "`laserscan_toolbox/ros/wall_clock_play.py`). Second: "
+            "the same data in the simulated-time playback (`rosbag play --clock --hz=%d`), where "
+            "every ROS process also takes /clock %d times a second; the difference is that "
+            "clock's share, which a robot does not pay (a few tenths either way are run-to-run "
+            "noise)." % (summary["window_s"], summary["clock_hz"], summary["clock_hz"]))
+        if summary.get("clock_share_percent") is None:
+            lines[-1] += (" The playback ran at rate %g, the replay at rate 1: no /clock share "
+                          "is given." % summary["rate"])
+    else:
+        lines.append(
+            "CPU seconds per second of bag data, in percent of one core (the measuring window, "
+            "%.1f s of wall time, also holds rosbag's start delay and the last outputs), under "
+            "rosbag's /clock: every ROS process takes it, a robot on wall time does not "
+            "(evaluate_bag replays the bag on wall time for the CPU unless --cpu-replay 0%s)." % (
+                results["playback_wall_s"], "; here: " + summary["wall_replay_problem"]
+                if summary.get("wall_replay_problem") else ""))
+    return lines + ["", cpu_table(results), ""]
 
 
 def accuracy_table(results):
@@ -193,11 +241,7 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
               "on the output, except where a merger's diagnostics count it as received and not "
               "dropped: a merger stamps each output with its newest input's time, so an input "
               "that comes after a newer one is merged into a later output under that stamp.", "",
-              outputs_table(results), ""] + stamps_ahead_note(results) + ["## CPU", "",
-              "CPU seconds per second of bag data, in percent of one core (the measuring "
-              "window, %.1f s of wall time, also holds rosbag's start delay and the last "
-              "outputs)." % results["playback_wall_s"], "",
-              cpu_table(results), ""]
+              outputs_table(results), ""] + stamps_ahead_note(results) + cpu_section(results)
     if results.get("accuracy"):
         lines += ["## Accuracy against the ideal scan", "",
                   "Ground truth: the scenario's ideal scan at the true pose (closest obstacle "
@@ -277,7 +321,17 @@ def make_plots(results, examples, run, outdir):
     if results["cpu"]:
         fig, ax = plt.subplots(figsize=(6, 2.8))
         names = sorted(results["cpu"])
-        ax.barh(names, [results["cpu"][n]["cpu_percent"] for n in names], color="tab:blue")
+        y = np.arange(len(names))
+        sim = [results["cpu"][n].get("sim_clock_cpu_percent") for n in names]
+        if results.get("cpu_summary", {}).get("clock") == "wall" and None not in sim:
+            ax.barh(y + 0.2, sim, height=0.4, color="tab:gray", label="under rosbag's /clock")
+            ax.barh(y - 0.2, [results["cpu"][n]["cpu_percent"] for n in names], height=0.4,
+                    color="tab:blue", label="on wall time (a robot)")
+            ax.legend(fontsize=6)
+        else:
+            ax.barh(y, [results["cpu"][n]["cpu_percent"] for n in names], color="tab:blue")
+        ax.set_yticks(y)
+        ax.set_yticklabels(names)
         ax.set_xlabel("CPU, % of one core")
         ax.tick_params(axis="y", labelsize=7)
         fig.tight_layout()
@@ -401,9 +455,7 @@ def summary_text(res):
     if stamps_ahead_note(res):
         lines.append("  negative latencies: stamps ahead of the bag clock (see the report); "
                      "the pipeline's own delay is 'delay after input'")
-    total = sum(c["cpu_percent"] for c in res["cpu"].values())
-    lines.append("  CPU of the pipeline: %s%% of one core (%s)" % (fmt(total), ", ".join(
-        "%s %s%%" % (n, fmt(c["cpu_percent"])) for n, c in sorted(res["cpu"].items()))))
+    lines += cpu_summary_lines(res)
     for t, a in sorted(res.get("accuracy", {}).items()):
         if isinstance(a.get("skipped"), str):
             continue
@@ -428,6 +480,31 @@ def summary_text(res):
     for c in res["thresholds"]:
         lines.append("  %s %s" % ("PASS" if c["ok"] else "FAIL", c["check"]))
     return "\n".join(lines)
+
+
+def cpu_summary_lines(res):
+    """The CPU lines of summary_text: total, by role and per process, on wall time when the
+    bag was replayed so, and the simulated clock's share."""
+    summary = res.get("cpu_summary", {})
+    total = sum(c["cpu_percent"] for c in res["cpu"].values())
+    wall = summary.get("clock") == "wall"
+    roles = ", ".join("%s %s%%" % ("%d %s" % (summary["processes"][r], ROLE_LABELS[r])
+                                   if r == "loader" else ROLE_LABELS[r], fmt(summary["by_role"][r]))
+                      for r in ROLE_LABELS if summary.get("processes", {}).get(r))
+    lines = ["  CPU of the pipeline: %s%% of one core %s%s" % (
+        fmt(total), "on wall time, as a robot pays it" if wall else "under the simulated clock",
+        " (%s)" % roles if roles else ""),
+        "    per process: " + ", ".join("%s %s%%" % (n, fmt(c["cpu_percent"]))
+                                        for n, c in sorted(res["cpu"].items()))]
+    if wall:
+        share = summary.get("clock_share_percent")
+        lines.append("    the same %.1f s under rosbag's %d Hz /clock: %s%%%s" % (
+            summary["window_s"], summary["clock_hz"], fmt(summary["sim_clock_total_percent"]),
+            " (the /clock share, not paid on a robot: %s%%)" % fmt(share) if share is not None
+            else ""))
+    elif summary.get("wall_replay_problem"):
+        lines.append("    " + summary["wall_replay_problem"])
+    return lines
 
 
 def demo_summary(outdir, timing=""):

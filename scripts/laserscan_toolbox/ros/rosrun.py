@@ -31,6 +31,16 @@ class RunError(Exception):
 # counted, but tagged so that its share can be reported on its own).
 MANAGER_TAG = " (manager)"
 LOADER_TAG = " (loader)"
+#: What process_role calls each process of a launch: a nodelet manager (the nodelets' work), a
+#: loader client (idle), any other node (a standalone node, a static_transform_publisher).
+ROLES = ("manager", "loader", "node")
+
+
+def process_role(name):
+    """"manager", "loader" or "node": the role of a process named by process_name."""
+    if name.endswith(MANAGER_TAG):
+        return "manager"
+    return "loader" if name.endswith(LOADER_TAG) else "node"
 
 
 def process_name(p):
@@ -255,7 +265,8 @@ class Launch:
 
 
 class CpuMeter:
-    """CPU time of processes between start() and stop(), as percent of one core."""
+    """CPU time of processes between start() and stop(), as percent of one core; ``snapshot``
+    and ``figures`` measure any other window over the same processes."""
 
     def __init__(self, named_procs):
         self.procs = [p for _, p in named_procs]
@@ -263,36 +274,47 @@ class CpuMeter:
         self.t0 = None
         self.before = {}
 
-    def _snapshot(self):
+    def snapshot(self):
         return cpu_accounting.snapshot(self.procs, lambda p: self.names[p.pid])
 
-    def start(self):
-        self.t0 = time.time()
-        self.before = self._snapshot()
-
-    def stop(self):
+    def figures(self, before, after, seconds):
+        """{process name: {"cpu_percent" (CPU seconds per ``seconds``, in percent of one core),
+        "cpu_seconds", "rss_mb"}} between two snapshots; a process that ended is left out."""
         import psutil
-        wall = time.time() - self.t0
-        after = self._snapshot()
-        per_process = cpu_accounting.spent(self.before, after)["per_process"]
+        per_process = cpu_accounting.spent(before, after)["per_process"]
         res = {}
         for p in self.procs:
             name = self.names[p.pid]
             cpu_s = per_process.get(cpu_accounting.label(name, p.pid))
             if cpu_s is None:
-                continue  # ended before stop()
+                continue  # ended before the window's end
             try:
                 rss = p.memory_info().rss
             except psutil.Error:
                 continue
-            res[name] = {"cpu_percent": 100.0 * cpu_s / wall if wall > 0 else float("nan"),
+            res[name] = {"cpu_percent": 100.0 * cpu_s / seconds if seconds > 0 else float("nan"),
                          "cpu_seconds": cpu_s, "rss_mb": rss / 1e6}
-        return res, wall
+        return res
+
+    def start(self):
+        self.t0 = time.time()
+        self.before = self.snapshot()
+
+    def stop(self):
+        wall = time.time() - self.t0
+        return self.figures(self.before, self.snapshot(), wall), wall
+
+
+#: How often rosbag play publishes /clock (per second of wall time): the simulated clock's
+#: resolution, e.g. of the evaluation's latencies.
+CLOCK_HZ = 200
 
 
 class BagPlayer:
+    """``rosbag play --clock``: the bag on simulated time (/clock at CLOCK_HZ)."""
+
     def __init__(self, bag, log_path, rate=1.0, extra=()):
-        self.cmd = ["rosbag", "play", "--clock", "--hz=200", "-q", "-d", "1", "-r",
+        self.cmd = ["rosbag", "play", "--clock", "--hz=%d" % CLOCK_HZ, "-q", "-d", "1", "-r",
                     str(rate)] + list(extra) + [bag]
         self.log_path = log_path
         self.proc = None
@@ -308,3 +330,57 @@ class BagPlayer:
 
     def stop(self):
         stop_process(self.proc, timeout=5)
+
+
+class WallClockPlayer:
+    """The bag on wall time, stamps moved to now (``wall_clock_play``): no /clock. ``start()``
+    returns once the player has connected to the pipeline and begun; ``offset_s`` is what it
+    added to every stamp; after ``wait()``, ``sent`` messages spanning ``data_s`` seconds of
+    the bag were played."""
+
+    def __init__(self, bag, log_path, duration=None):
+        self.cmd = [sys.executable, "-m", "laserscan_toolbox.ros.wall_clock_play", bag] + (
+            ["--duration", "%.9g" % duration] if duration is not None else [])
+        self.log_path = log_path
+        self.proc = None
+        self.offset_s = None
+        self.sent = None
+        self.data_s = None
+
+    def start(self, timeout=60.0):
+        """Starts the player; returns when it has begun playing (RunError if it could not)."""
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+            [os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))]
+            + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+        self._log = open(self.log_path, "w")
+        self.proc = subprocess.Popen(self.cmd, stdout=subprocess.PIPE, stderr=self._log, text=True,
+                                     stdin=subprocess.DEVNULL, start_new_session=True, env=env)
+        line = self._line(timeout)
+        if not line.startswith("started "):
+            self.stop()
+            raise RunError("the wall-clock player did not start:\n%s" % log_tail(self.log_path))
+        self.offset_s = float(line.split()[1])
+        return self
+
+    def _line(self, timeout):
+        got = []
+        reader = threading.Thread(target=lambda: got.append(self.proc.stdout.readline()), daemon=True)
+        reader.start()
+        reader.join(timeout)
+        return got[0] if got else ""
+
+    def wait(self, timeout):
+        """Waits for the end of playback; returns the number of messages sent."""
+        line = self._line(timeout)
+        self.proc.wait(10)
+        self._log.close()
+        if not line.startswith("done ") or self.proc.returncode != 0:
+            raise RunError("the wall-clock player failed (status %s):\n%s"
+                           % (self.proc.returncode, log_tail(self.log_path)))
+        self.sent, self.data_s = int(line.split()[1]), float(line.split()[2])
+        return self.sent
+
+    def stop(self):
+        stop_process(self.proc, timeout=5)
+        if not self._log.closed:
+            self._log.close()
