@@ -292,7 +292,7 @@ def test_process_roles_follow_the_tags_of_process_names():
 
 
 def test_wall_time_replay_overrides_use_sim_time_where_the_launch_declares_it(tmp_path):
-    from laserscan_toolbox.evaluation.playback import wall_time_args
+    from laserscan_toolbox.ros.rosrun import wall_time_args
     declares = tmp_path / "declares.launch"
     declares.write_text('<launch><arg name="use_sim_time" default="true"/>'
                         '<arg name="other" default="1"/></launch>')

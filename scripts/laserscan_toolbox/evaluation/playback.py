@@ -238,21 +238,6 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
                 rec.close()
 
 
-def wall_time_args(launch_file, launch_args):
-    """launch_args with ``use_sim_time:=false`` in place of any use_sim_time given, when the
-    launch file declares that argument (a launch that does not leaves /use_sim_time to the
-    master, which ``run_pipeline_on_wall_time`` sets false)."""
-    import xml.etree.ElementTree as ET
-    args = [a for a in launch_args if not a.startswith("use_sim_time:=")]
-    try:
-        root = ET.parse(launch_file).getroot()
-    except (ET.ParseError, OSError):
-        return args
-    if any(e.get("name") == "use_sim_time" for e in root.findall("arg")):
-        args.append("use_sim_time:=false")
-    return args
-
-
 def run_pipeline_on_wall_time(session, bag_info, launch_file, launch_args=(), duration=None,
                               record_types=("sensor_msgs/LaserScan",), label="wall", select=None,
                               topics=None):
@@ -270,11 +255,9 @@ def run_pipeline_on_wall_time(session, bag_info, launch_file, launch_args=(), du
         def select(topic, type_):
             return type_ in record_types
     master = session.master.master
-    master.setParam("/use_sim_time", False)  # for the nodes of a launch that does not set it
     rec = None
     try:
-        with session.launched(launch_file, wall_time_args(launch_file, launch_args),
-                              label) as (launch, pubs):
+        with session.launched(launch_file, launch_args, label, wall_time=True) as (launch, pubs):
             types = dict(master.getTopicTypes())
             outputs = {t: types.get(t, "?") for t in pubs if t not in SKIP_TOPICS}
             to_record = topics if topics is not None else {
@@ -306,7 +289,6 @@ def run_pipeline_on_wall_time(session, bag_info, launch_file, launch_args=(), du
     finally:
         if rec is not None:
             rec.close()
-        master.setParam("/use_sim_time", True)
 
 
 def rospy_time():

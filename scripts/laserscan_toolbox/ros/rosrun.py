@@ -164,15 +164,26 @@ class Session:
         return self
 
     @contextlib.contextmanager
-    def launched(self, launch_file, args=(), label="run"):
+    def launched(self, launch_file, args=(), label="run", wall_time=False):
         """``roslaunch launch_file args...`` on this session's master, logging to
         <workdir>/<label>_roslaunch.log. Yields (the Launch, {topic: [publisher nodes]} of what its
-        nodes publish) once those publications have settled; stops the launch on leaving."""
-        launch = Launch(launch_file, args, os.path.join(self.workdir, label + "_roslaunch.log")).start()
+        nodes publish) once those publications have settled; stops the launch on leaving.
+
+        wall_time: the nodes run on wall time, as on a robot (/use_sim_time false on the master
+        and ``use_sim_time:=false`` where the launch declares it, ``wall_time_args``), to be fed
+        by a ``WallClockPlayer``; the session's own node stays on simulated time."""
+        if wall_time:
+            self.master.master.setParam("/use_sim_time", False)
+            args = wall_time_args(launch_file, args)
         try:
-            yield launch, launch.wait_ready(self.master.master, ignore_nodes=(own_node_name(),))
+            launch = Launch(launch_file, args, os.path.join(self.workdir, label + "_roslaunch.log")).start()
+            try:
+                yield launch, launch.wait_ready(self.master.master, ignore_nodes=(own_node_name(),))
+            finally:
+                launch.stop()
         finally:
-            launch.stop()
+            if wall_time:
+                self.master.master.setParam("/use_sim_time", self.master.sim_time)
 
     def __exit__(self, *exc):
         import rospy
@@ -180,6 +191,21 @@ class Session:
         self.master.__exit__(*exc)
         if self.own_dir and not self.keep:
             shutil.rmtree(self.workdir, ignore_errors=True)
+
+
+def wall_time_args(launch_file, launch_args):
+    """launch_args with ``use_sim_time:=false`` in place of any use_sim_time given, when the
+    launch file declares that argument (roslaunch refuses an argument a file does not declare;
+    such a launch leaves /use_sim_time to the master)."""
+    import xml.etree.ElementTree as ET
+    args = [a for a in launch_args if not a.startswith("use_sim_time:=")]
+    try:
+        root = ET.parse(launch_file).getroot()
+    except (ET.ParseError, OSError):
+        return args
+    if any(e.get("name") == "use_sim_time" for e in root.findall("arg")):
+        args.append("use_sim_time:=false")
+    return args
 
 
 def own_node_name():
@@ -382,5 +408,5 @@ class WallClockPlayer:
 
     def stop(self):
         stop_process(self.proc, timeout=5)
-        if not self._log.closed:
+        if getattr(self, "_log", None) is not None and not self._log.closed:
             self._log.close()
