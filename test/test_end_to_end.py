@@ -186,6 +186,29 @@ def test_real_slam_and_localization_on_both_streams(evaluated):
     assert "## SLAM and localization" in report and "(slam_maps.png)" in report
 
 
+def test_cpu_is_reported_as_a_robot_on_wall_time_pays_it(evaluated):
+    """The bag's first 10 s replayed on wall time (use_sim_time false, no /clock, stamps moved
+    to now): the pipeline works there as on a robot (the merged scan at its rate, which needs
+    the transforms at the moved stamps), and each idle loader client costs less than under
+    rosbag's 200 Hz /clock, whose share is reported apart."""
+    res = evaluated["results"]
+    s = res["cpu_summary"]
+    assert s["clock"] == "wall" and s["wall_replay_problem"] is None, s
+    assert s["window_s"] == pytest.approx(10.0, abs=0.1) and s["rate"] == 1.0
+    window = s["wall_replay_data_s"]
+    assert s["wall_replay_outputs"][MERGED] >= 0.8 * res["outputs"][MERGED]["rate_hz"] * window, s
+    assert s["processes"]["manager"] == 1 and s["processes"]["loader"] >= 9, s
+    loaders = [c for c in res["cpu"].values() if c["role"] == "loader"]
+    # idle on wall time about 0.3 % of a core each, under /clock about 1.5 %
+    assert all(c["cpu_percent"] < c["sim_clock_cpu_percent"] for c in loaders), res["cpu"]
+    assert sum(c["clock_share_percent"] for c in loaders) > 0.5 * len(loaders), res["cpu"]
+    assert s["total_percent"] == pytest.approx(sum(c["cpu_percent"] for c in res["cpu"].values()))
+    assert s["sim_clock_total_percent"] - s["total_percent"] == pytest.approx(s["clock_share_percent"])
+    with open(os.path.join(evaluated["out"], "report.md")) as f:
+        assert "| nodelet loader clients (%d) |" % len(loaders) in f.read()
+    assert "on wall time, as a robot pays it" in evaluated["log"]
+
+
 def test_users_bag_without_ground_truth(tmp_path):
     """Two real lidars, no tf, no odometry: launch/dual_lidar_demo.launch publishes the
     mounts and merges; the tool reports rates, drops, coverage and CPU, no accuracy."""
@@ -202,6 +225,11 @@ def test_users_bag_without_ground_truth(tmp_path):
     assert {i["topic"] for i in m["inputs"]} == {"/front_scan", "/rear_scan"}
     assert "accuracy" not in r and not r["ground_truth"]
     assert any(n.endswith(MANAGER_TAG) for n in r["cpu"]), r["cpu"]
+    # replayed on wall time through a launch without a use_sim_time argument (the master's
+    # parameter does it); played at rate 2 under /clock, so no /clock share is given
+    cpu = r["cpu_summary"]
+    assert cpu["clock"] == "wall" and cpu["wall_replay_outputs"][MERGED] > 100, cpu
+    assert cpu["clock_share_percent"] is None, cpu
     # the scans are plotted: inputs placed by the mounts the launch publishes, merged scan
     plot = r["scan_plot"]
     assert plot["topic"] == MERGED and plot["frame"] == "base_link"
@@ -237,7 +265,7 @@ def test_stamps_at_the_end_of_ros_time_are_reported_not_a_crash(tmp_path):
                            lambda t, t0: rospy.Time(2 ** 32 - 8) + (t - t0))
     code, log = run([os.path.join(SCRIPTS, "evaluate_bag"), bag, "--launch",
                      os.path.join(REPO, "launch", "dual_lidar_demo.launch"), "--output",
-                     str(tmp_path / "out"), "--rate", "2", "--no-progress"], 300)
+                     str(tmp_path / "out"), "--rate", "2", "--no-progress", "--cpu-replay", "0"], 300)
     assert "Traceback" not in log, log
     # No node may die of such stamps (the merger drops them as malformed, naming them).
     assert "has died" not in log, log

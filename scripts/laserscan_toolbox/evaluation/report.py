@@ -491,11 +491,11 @@ def cpu_summary_lines(res):
     roles = ", ".join("%s %s%%" % ("%d %s" % (summary["processes"][r], ROLE_LABELS[r])
                                    if r == "loader" else ROLE_LABELS[r], fmt(summary["by_role"][r]))
                       for r in ROLE_LABELS if summary.get("processes", {}).get(r))
-    lines = ["  CPU of the pipeline: %s%% of one core %s%s" % (
+    lines = ["  CPU of the pipeline: %s%% of one core %s (%s)" % (
         fmt(total), "on wall time, as a robot pays it" if wall else "under the simulated clock",
-        " (%s)" % roles if roles else ""),
-        "    per process: " + ", ".join("%s %s%%" % (n, fmt(c["cpu_percent"]))
-                                        for n, c in sorted(res["cpu"].items()))]
+        ", ".join("%s %s%%" % (n, fmt(c["cpu_percent"])) for n, c in sorted(res["cpu"].items())))]
+    if roles:
+        lines.append("    by role: " + roles)
     if wall:
         share = summary.get("clock_share_percent")
         lines.append("    the same %.1f s under rosbag's %d Hz /clock: %s%%%s" % (
