@@ -148,7 +148,7 @@ def cpu_section(results):
             "CPU seconds per second of bag data, in percent of one core, of every process the "
             "launch started, on the bag's first %.1f s. First column: replayed on wall time as a "
             "robot runs (use_sim_time false, no /clock, every stamp moved to now: "
-            "`laserscan_toolbox/ros/wall_clock_play.py`). Second: "
+            "`scripts/laserscan_toolbox/ros/wall_clock_play.py`). Second: "
             "the same data in the simulated-time playback (`rosbag play --clock --hz=%d`), where "
             "every ROS process also takes /clock %d times a second; the difference is that "
             "clock's share, which a robot does not pay (a few tenths either way are run-to-run "
