@@ -324,3 +324,11 @@ def test_the_report_gives_what_a_robot_pays_beside_the_clock_share():
     res = {"cpu": per, "cpu_summary": dict(summary, wall_replay_problem=None), "playback_wall_s": 60.0}
     assert "under the simulated clock" in report.cpu_table(res)
     assert "12.2% of one core under the simulated clock" in "\n".join(report.cpu_summary_lines(res))
+
+
+def test_a_wall_clock_player_that_cannot_start_says_why(tmp_path):
+    from laserscan_toolbox.ros.rosrun import RunError, WallClockPlayer
+    player = WallClockPlayer(str(tmp_path / "missing.bag"), str(tmp_path / "play.log"))
+    with pytest.raises(RunError, match="did not start(.|\n)*missing.bag"):
+        player.start(timeout=30.0)
+    assert player.proc.poll() is not None  # nothing left running

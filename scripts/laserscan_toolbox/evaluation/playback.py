@@ -213,8 +213,9 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
                            mark_window if cpu_window else None)
             extra = {}
             if cpu_window and "start" in window:
+                import rospy
                 (t0, before), (t1, after) = window["start"], window.get(
-                    "end", (rospy_time(), cpu.snapshot()))  # a bag shorter than the window
+                    "end", (rospy.get_time(), cpu.snapshot()))  # a bag shorter than the window
                 extra = {"cpu_window": cpu.figures(before, after, (t1 - t0) / rate),
                          "cpu_window_s": t1 - t0}
             time.sleep(tail)  # outputs of the last inputs are still on their way
@@ -289,11 +290,6 @@ def run_pipeline_on_wall_time(session, bag_info, launch_file, launch_args=(), du
     finally:
         if rec is not None:
             rec.close()
-
-
-def rospy_time():
-    import rospy
-    return rospy.get_time()
 
 
 def _wait_playback(player, bag_info, progress, label, poll=None, on_clock=None):

@@ -398,7 +398,10 @@ class WallClockPlayer:
     def wait(self, timeout):
         """Waits for the end of playback; returns the number of messages sent."""
         line = self._line(timeout)
-        self.proc.wait(10)
+        try:
+            self.proc.wait(10 if line else 0.1)
+        except subprocess.TimeoutExpired:
+            self.stop()
         self._log.close()
         if not line.startswith("done ") or self.proc.returncode != 0:
             raise RunError("the wall-clock player failed (status %s):\n%s"

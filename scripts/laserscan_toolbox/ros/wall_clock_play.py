@@ -106,8 +106,9 @@ def play(bag_path, duration=None, connect_timeout=5.0, out=sys.stdout):
     import rosbag
     import rosgraph
     import rospy
+    bag = rosbag.Bag(bag_path)  # before the node: a bad bag fails at once, master or not
     rospy.init_node("wall_clock_play", anonymous=True, disable_signals=True)
-    with rosbag.Bag(bag_path) as bag:
+    with bag:
         start = bag.get_start_time()
         end = bag.get_end_time() if duration is None else min(bag.get_end_time(), start + duration)
         publishers, shifters = {}, {}
