@@ -35,7 +35,7 @@ COMMANDS = {
     "scripts/demo --no-slam --no-cpu": CHECKED,
     "scripts/check_config config/sim_robot/*.yaml": "scripts/demo",
     "scripts/check_config depth_filter_scan_converter/config/depth_filter_scan_converter.yaml "
-    "multi_laserscan_merger/config/paper_robot.yaml": "test/test_config_check.py",
+    "multi_laserscan_merger/config/multi_laserscan_merger.yaml": "test/test_config_check.py",
     "scripts/check_config config/dual_lidar_demo/merger.yaml --bag test/data/real/dual_lidar_scans_demo.bag "
     "--tf-launch launch/dual_lidar_demo.launch": "test/test_config_check.py",
     "scripts/check_config config/dual_lidar_demo/merger.yaml --bag test/data/real/dual_lidar_scans_demo.bag "
