@@ -489,8 +489,13 @@ def xml_includes(text):
         found = re.match(r"\$\(find ([\w]+)\)/(.*)", file)
         if not found:
             continue
-        yield os.path.normpath(os.path.join(REPO, found.group(1), found.group(2))), found.group(1), \
-            re.findall(r'<arg\s+name="([^"]+)"', body)
+        package, path = found.group(1), found.group(2)
+        launch = os.path.normpath(os.path.join(REPO, package, path))
+        if not os.path.isfile(launch) and path.startswith("launch/") and package in packages():
+            # a launch file the package installs from the repository's launch/
+            launch = next((os.path.join(d, path[len("launch/"):]) for d in launch_dirs(package)
+                           if os.path.isfile(os.path.join(d, path[len("launch/"):]))), launch)
+        yield launch, package, re.findall(r'<arg\s+name="([^"]+)"', body)
 
 
 def test_launch_includes_in_the_docs_exist_with_their_arguments():
