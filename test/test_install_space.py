@@ -220,7 +220,8 @@ def test_every_nodelet_loads_into_a_manager(installed):
 
 def test_every_launch_file_parses_with_its_configs_and_checks(installed):
     """roslaunch <package> <file> finds each file; its YAMLs ($(dirname)/../config,
-    $(find ...)) are read and pipeline.launch's check_config runs (rosrun) on each."""
+    $(find ...)) are read and pipeline.launch's check_config runs on each
+    ($(find scan_evaluation_tools)/check_config: the installed tool)."""
     config = os.path.join(installed.prefix, "share", "scan_evaluation_tools", "config", "dual_lidar_demo",
                           "merger.yaml")
     results = installed.run_all([["roslaunch", "--nodes", pkg, launch]
