@@ -124,6 +124,7 @@ COMMANDS = {
     "cd ~/catkin_ws": CHECKED,
     "catkin_make -DCMAKE_BUILD_TYPE=Release": CHECKED,
     "catkin_make install": CHECKED,
+    "catkin init": CHECKED,
     "catkin config --install --cmake-args -DCMAKE_BUILD_TYPE=Release": CHECKED,
     "catkin build": CHECKED,
     "source install/setup.bash": "test/test_install_space.py",
