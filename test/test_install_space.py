@@ -50,13 +50,17 @@ NODELETS = [
     ("multi_laserscan_merger/MultiLaserScanMergerNodelet",
      "multi_laserscan_merger", "multi_laserscan_merger.yaml"),
 ]
-FRAGMENTS = [("depth_filter_scan_converter", "depth_filter_scan_converter.launch"),
-             ("depth_filter_scan_converter", "range_scan_converter.launch"),
-             ("multi_laserscan_merger", "multi_laserscan_merger.launch"),
-             ("scan_evaluation_tools", "check_config.launch"),
-             ("scan_evaluation_tools", "dual_lidar_demo.launch"),
-             ("scan_evaluation_tools", "pipeline.launch"),
-             ("scan_evaluation_tools", "rviz.launch")]
+# Every launch file the install space holds; the last test starts those in STARTED, the others
+# are parsed (roslaunch --nodes), with their configs and checks, since they need a robot or rviz.
+LAUNCH_FILES = [("depth_filter_scan_converter", "depth_filter_scan_converter.launch"),
+                ("depth_filter_scan_converter", "range_scan_converter.launch"),
+                ("multi_laserscan_merger", "multi_laserscan_merger.launch"),
+                ("scan_evaluation_tools", "check_config.launch"),
+                ("scan_evaluation_tools", "dual_lidar_demo.launch"),
+                ("scan_evaluation_tools", "pipeline.launch"),
+                ("scan_evaluation_tools", "rviz.launch")]
+STARTED = {"depth_filter_scan_converter.launch", "range_scan_converter.launch",
+           "multi_laserscan_merger.launch", "dual_lidar_demo.launch"}
 MANAGER = "install_manager"
 
 
@@ -219,16 +223,20 @@ def test_every_nodelet_loads_into_a_manager(installed):
             stop_process(p)
 
 
-def test_every_launch_file_parses_with_its_configs_and_checks(installed):
+def test_every_launch_file_is_installed_and_parses_with_its_configs_and_checks(installed):
     """roslaunch <package> <file> finds each file; its YAMLs ($(dirname)/../config,
     $(find ...)) are read and pipeline.launch's check_config runs on each
     ($(find scan_evaluation_tools)/check_config: the installed tool)."""
-    config = os.path.join(installed.prefix, "share", "scan_evaluation_tools", "config", "dual_lidar_demo",
-                          "merger.yaml")
+    share = os.path.join(installed.prefix, "share")
+    found = sorted((os.path.basename(os.path.dirname(os.path.dirname(p))), os.path.basename(p))
+                   for p in glob.glob(os.path.join(share, "*", "launch", "*.launch")))
+    assert found == sorted(LAUNCH_FILES), found
+    config = os.path.join(share, "scan_evaluation_tools", "config", "dual_lidar_demo", "merger.yaml")
+    parsed = [(pkg, launch) for pkg, launch in LAUNCH_FILES if launch not in STARTED]
     results = installed.run_all([["roslaunch", "--nodes", pkg, launch]
                                  + (["config:=" + config] if launch == "check_config.launch" else [])
-                                 for pkg, launch in FRAGMENTS])
-    for (pkg, launch), (code, out) in zip(FRAGMENTS, results):
+                                 for pkg, launch in parsed])
+    for (pkg, launch), (code, out) in zip(parsed, results):
         assert code == 0 and out.strip(), (pkg, launch, out)
         if launch == "pipeline.launch":
             assert out.count(": ok") == 6 and "/merged_scan_merger" in out, out
