@@ -35,7 +35,7 @@ COMMANDS = {
     "scripts/demo --no-slam --no-cpu": CHECKED,
     "scripts/check_config config/sim_robot/*.yaml": "scripts/demo",
     "scripts/check_config depth_filter_scan_converter/config/depth_filter_scan_converter.yaml "
-    "multi_laserscan_merger/config/paper_robot.yaml": "test/test_config_check.py",
+    "multi_laserscan_merger/config/multi_laserscan_merger.yaml": "test/test_config_check.py",
     "scripts/check_config config/dual_lidar_demo/merger.yaml --bag test/data/real/dual_lidar_scans_demo.bag "
     "--tf-launch launch/dual_lidar_demo.launch": "test/test_config_check.py",
     "scripts/check_config config/dual_lidar_demo/merger.yaml --bag test/data/real/dual_lidar_scans_demo.bag "
@@ -122,6 +122,15 @@ COMMANDS = {
     "sed -e s#^rawlog_file=.*#rawlog_file=$PWD/merged.rawlog# -e s#^logOutput_dir=.*#logOutput_dir=$PWD/slam# "
     "$(rospack find scan_evaluation_tools)/config/rbpf_slam.ini > slam.ini": CHECKED,
     "rbpf-slam slam.ini </dev/null": CHECKED,
+    # --- a user's catkin workspace and its install space (the builds by hand: docs/testing.md)
+    "cd ~/catkin_ws": CHECKED,
+    "catkin_make -DCMAKE_BUILD_TYPE=Release": CHECKED,
+    "catkin_make install": CHECKED,
+    "catkin init": CHECKED,
+    "catkin config --install --cmake-args -DCMAKE_BUILD_TYPE=Release": CHECKED,
+    "catkin build": CHECKED,
+    "source install/setup.bash": "test/test_install_space.py",
+    "rosrun scan_evaluation_tools check_config ~/my_robot/merger.yaml": "test/test_install_space.py",
     # --- launch fragments
     "roslaunch multi_laserscan_merger multi_laserscan_merger.launch manager:=laser_manager":
         "multi_laserscan_merger/test/rostest/merger_nodelet.test",
@@ -133,7 +142,8 @@ COMMANDS = {
 # registers (catkin run_tests), and every pytest file under the packages' test/ and test/.
 
 # Programs that are not this repository's and need no more than their path arguments checked.
-EXTERNAL = {"source", "cd", "catkin_test_results", "sed", "rbpf-slam", "rosbag", "catkin_lint"}
+EXTERNAL = {"source", "cd", "catkin_test_results", "sed", "rbpf-slam", "rosbag", "catkin_lint", "catkin_make",
+            "catkin"}
 SHELL_LANGS = {"sh", "bash", "shell", "console"}
 
 
@@ -198,12 +208,29 @@ def packages():
 
 
 @functools.lru_cache(maxsize=None)
-def build_targets(package):
-    """Executable and test targets a package's CMakeLists.txt declares."""
+def cmakelists(package):
     with open(os.path.join(REPO, package, "CMakeLists.txt"), encoding="utf-8") as f:
-        text = f.read().replace("${PROJECT_NAME}", package)
+        return f.read().replace("${PROJECT_NAME}", package)
+
+
+@functools.lru_cache(maxsize=None)
+def build_targets(package):
+    """Executable and test targets a package's CMakeLists.txt declares, and the scripts it
+    installs (catkin_install_python: rosrun runs them too)."""
+    text = cmakelists(package)
     names = re.findall(r"\b(?:add_executable|catkin_add_gtest|sanitized_gtest|add_custom_target)\(\s*([\w.-]+)", text)
+    for programs in re.findall(r"catkin_install_python\(PROGRAMS\s+([^)]*?)\s+DESTINATION", text):
+        names += [os.path.basename(p) for p in programs.split()]
     return set(names)
+
+
+def launch_dirs(package):
+    """Where `roslaunch <package> <file>` finds a file: the package's launch/, and the
+    repository's launch/ for the package that installs it (scan_evaluation_tools)."""
+    dirs = [os.path.join(REPO, package, "launch")]
+    if re.search(r"install\(DIRECTORY[^)]*\.\./launch\b", cmakelists(package)):
+        dirs.append(os.path.join(REPO, "launch"))
+    return dirs
 
 
 def all_targets():
@@ -303,9 +330,10 @@ def check_simple(tokens):
         if args and args[0].endswith(".launch"):
             launch, rest = os.path.join(REPO, args[0]), args[1:]
         elif len(args) >= 2:
-            launch, rest = os.path.join(REPO, args[0], "launch", args[1]), args[2:]
             if args[0] not in packages():
                 return ["roslaunch: %s is not a package of this repository" % args[0]]
+            found = [os.path.join(d, args[1]) for d in launch_dirs(args[0]) if os.path.isfile(os.path.join(d, args[1]))]
+            launch, rest = (found or [os.path.join(REPO, args[0], "launch", args[1])])[0], args[2:]
         else:
             return ["roslaunch without a launch file"]
         if not os.path.isfile(launch):
@@ -464,8 +492,13 @@ def xml_includes(text):
         found = re.match(r"\$\(find ([\w]+)\)/(.*)", file)
         if not found:
             continue
-        yield os.path.normpath(os.path.join(REPO, found.group(1), found.group(2))), found.group(1), \
-            re.findall(r'<arg\s+name="([^"]+)"', body)
+        package, path = found.group(1), found.group(2)
+        launch = os.path.normpath(os.path.join(REPO, package, path))
+        if not os.path.isfile(launch) and path.startswith("launch/") and package in packages():
+            # a launch file the package installs from the repository's launch/
+            launch = next((os.path.join(d, path[len("launch/"):]) for d in launch_dirs(package)
+                           if os.path.isfile(os.path.join(d, path[len("launch/"):]))), launch)
+        yield launch, package, re.findall(r'<arg\s+name="([^"]+)"', body)
 
 
 def test_launch_includes_in_the_docs_exist_with_their_arguments():

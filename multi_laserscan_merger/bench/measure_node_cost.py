@@ -102,7 +102,7 @@ def read_count(path):
 
 
 def measure(env, mode, seconds, tmp):
-    subprocess.run(['rosparam', 'load', os.path.join(PKG, 'config', 'paper_robot.yaml'), '/merger'], env=env, check=True)
+    subprocess.run(['rosparam', 'load', os.path.join(PKG, 'config', 'multi_laserscan_merger.yaml'), '/merger'], env=env, check=True)
     procs = []
     if mode == 'nodelet':
         manager = subprocess.Popen(['rosrun', 'nodelet', 'nodelet', 'manager', '__name:=manager'], env=env,

@@ -65,7 +65,7 @@ def run_node(env, name, wait, args=()):
 
 
 def test_shipped_config_starts(ros_env):
-    subprocess.run(['rosparam', 'load', os.path.join(PKG, 'config', 'paper_robot.yaml'), '/merger_ok'],
+    subprocess.run(['rosparam', 'load', os.path.join(PKG, 'config', 'multi_laserscan_merger.yaml'), '/merger_ok'],
                    env=ros_env, check=True)
     code, out = run_node(ros_env, 'merger_ok', 4.0)
     assert code is None, out

@@ -15,6 +15,8 @@ test test/test_toolbox_layers.py checks it):
                    points, transport, camera path, soak) and the node fuzz's inputs.
 
 Nothing is imported here, so that a tool only pays for what it uses. The command-line entry
-points live beside this folder in ``scripts/``; each adds ``scripts/`` to ``sys.path`` and
-calls a module's ``main``.
+points live beside this folder in ``scripts/``; each adds ``scripts/`` to ``sys.path`` when it
+runs from the source tree and calls a module's ``main``. scan_evaluation_tools installs this
+package (its ``setup.py``, ``catkin_python_setup``) and the tools a robot runs, which then import
+it through the normal Python path.
 """

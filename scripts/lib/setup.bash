@@ -57,8 +57,10 @@ install_debian_packages() {
 build_workspace() {
   log "configuring and building in $BUILD_DIR (Release)"
   mkdir -p "$BUILD_DIR"
+  # The install target writes to $BUILD_DIR/install (test/test_install_space.py checks that
+  # install space), never to /usr/local.
   cmake -S "$REPO_ROOT" -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release \
-    -DCATKIN_ENABLE_TESTING=ON \
+    -DCATKIN_ENABLE_TESTING=ON -DCMAKE_INSTALL_PREFIX="$BUILD_DIR/install" \
     -DPYTHON_EXECUTABLE="$SYSTEM_PYTHON" -DPython3_EXECUTABLE="$SYSTEM_PYTHON" >"$BUILD_DIR/configure.log" 2>&1 \
     || { cat "$BUILD_DIR/configure.log"; return 1; }
   cmake --build "$BUILD_DIR" -j"$(nproc)" "$@"

@@ -19,7 +19,23 @@ import time
 
 from . import cpu_accounting
 
-REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+
+def _bring_up_folder():
+    """The folder that holds the system bring-up, launch/ beside config/ (and scripts/ in a
+    source tree): the repository when the toolbox runs from its source tree (also through a
+    devel space, whose relay imports it from there); else scan_evaluation_tools' share folder,
+    where the install space puts the same launch/ and config/ (that package owns the toolbox)."""
+    source = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+    if os.path.isfile(os.path.join(source, "launch", "pipeline.launch")):
+        return source
+    from catkin.find_in_workspaces import find_in_workspaces
+    found = find_in_workspaces(["share"], "scan_evaluation_tools", "launch/pipeline.launch",
+                               first_match_only=True)
+    return os.path.dirname(os.path.dirname(found[0])) if found else source
+
+
+# launch/ and config/ are REPO's: the repository, or installed, scan_evaluation_tools' share folder.
+REPO = _bring_up_folder()
 
 
 class RunError(Exception):
