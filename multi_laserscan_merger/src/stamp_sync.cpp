@@ -7,8 +7,7 @@
 namespace multi_laserscan_merger
 {
 
-StampSync::StampSync(double window, const std::vector<double>& timeouts)
-  : window_(window), history_(timeouts.size())
+StampSync::StampSync(double window, const std::vector<double>& timeouts) : window_(window), history_(timeouts.size())
 {
   for (double t : timeouts)
     timeouts_.push_back(static_cast<std::int64_t>(std::min(t, 1e9) * 1e9));

@@ -28,9 +28,9 @@ struct Arrival
 struct Output
 {
   std::int64_t stamp;
-  double time;                            ///< when published
-  std::vector<std::int64_t> held;         ///< stamp of each source's scan in it (-1: none)
-  std::vector<std::size_t> missing;       ///< due at the window's end and not in
+  double time;                       ///< when published
+  std::vector<std::int64_t> held;    ///< stamp of each source's scan in it (-1: none)
+  std::vector<std::size_t> missing;  ///< due at the window's end and not in
   bool waited;
 };
 
@@ -40,7 +40,8 @@ std::vector<Output> play(std::vector<Arrival> arrivals, std::size_t n_sources, d
 {
   if (timeouts.empty())
     timeouts.assign(n_sources, 1.0);
-  std::stable_sort(arrivals.begin(), arrivals.end(), [](const Arrival& a, const Arrival& b) { return a.time < b.time; });
+  std::stable_sort(arrivals.begin(), arrivals.end(),
+                   [](const Arrival& a, const Arrival& b) { return a.time < b.time; });
   std::vector<std::int64_t> slot(n_sources, -1);
   std::vector<Output> out;
   double clock = 0.0;
@@ -91,7 +92,8 @@ std::vector<Arrival> sharedStamps(std::size_t n, double rate, int frames, double
 /// scan that makes the newest stamp held newer than the last output.
 std::vector<std::int64_t> withoutWindow(std::vector<Arrival> arrivals, std::size_t n_sources)
 {
-  std::stable_sort(arrivals.begin(), arrivals.end(), [](const Arrival& a, const Arrival& b) { return a.time < b.time; });
+  std::stable_sort(arrivals.begin(), arrivals.end(),
+                   [](const Arrival& a, const Arrival& b) { return a.time < b.time; });
   std::vector<std::int64_t> slot(n_sources, -1), out;
   for (const auto& a : arrivals)
   {
@@ -166,7 +168,8 @@ TEST(SyncWindow, ZeroIsThePreviousBehaviour)
   {
     EXPECT_EQ(out[k].stamp, expected[k]);
     EXPECT_FALSE(out[k].waited);
-    incomplete += std::count_if(out[k].held.begin(), out[k].held.end(), [&](std::int64_t s) { return s != out[k].stamp; }) > 0;
+    incomplete +=
+      std::count_if(out[k].held.begin(), out[k].held.end(), [&](std::int64_t s) { return s != out[k].stamp; }) > 0;
   }
   EXPECT_GT(incomplete, 35u);  // the problem the window solves
 }
@@ -207,6 +210,31 @@ TEST(SyncWindow, ADeadSourceDelaysNothingBeyondTheBound)
     }
   }
   EXPECT_EQ(at_bound, 1u);
+}
+
+// A window longer than the frame period (a dead source's wait overlaps the next frame, whose
+// scans are held back meanwhile): the next frame's held scans still complete its output.
+TEST(SyncWindow, ScansHeldBehindAWaitingOutputCompleteTheirOwn)
+{
+  auto arrivals = sharedStamps(3, 20.0, 40, 0.02, 0.01);
+  const std::int64_t stop = kStart + 20 * (kSecond / 20);
+  arrivals.erase(std::remove_if(arrivals.begin(), arrivals.end(),
+                                [&](const Arrival& a) { return a.source == 2 && a.stamp >= stop; }),
+                 arrivals.end());
+  const auto first = firstArrivals(arrivals);
+  const auto out = play(arrivals, 3, 0.08);
+  ASSERT_EQ(out.size(), 40u);
+  expectIncreasing(out);
+  for (const auto& o : out)
+  {
+    EXPECT_LE(o.time, first.at(o.stamp) + 0.08 + 1e-12);
+    if (o.stamp < kStart + 2 * (kSecond / 20))
+      continue;
+    EXPECT_EQ(o.held[0], o.stamp);
+    EXPECT_EQ(o.held[1], o.stamp);
+    EXPECT_EQ(o.held[2] == o.stamp, o.stamp < stop);
+    EXPECT_EQ(o.missing.empty(), o.stamp != stop);
+  }
 }
 
 // A source late by more than the window: the output goes at the bound without it, naming it; its

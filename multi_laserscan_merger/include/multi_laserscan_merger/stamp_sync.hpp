@@ -104,8 +104,7 @@ public:
 
   SyncedOutputs(double window, const std::vector<double>& timeouts, bool every_scan, Handlers handlers)
     : sync_(window, timeouts), every_scan_(every_scan), handlers_(std::move(handlers)), newest_(timeouts.size(), kNone)
-  {
-  }
+  {}
 
   /// A usable scan of `source` stamped `stamp` (ns) arrived at `arrival` (s, the clock of `now`).
   /// Ignored when older than the scan the source has in the merge (not newer information).
@@ -207,14 +206,22 @@ private:
     handlers_.publish(stamp, decision_, waited);
   }
 
-  /// Admits the held scans in their order of arrival until one makes an output wait again.
+  /// Admits the held scans in their order of arrival; while an output waits, only those not
+  /// newer than it (a scan of its stamp held behind a newer one completes it). The queue holds
+  /// the scans of one window: a few, so starting over after each admission is cheap.
   void release(double now)
   {
-    while (!waiting_ && !held_.empty())
+    for (auto it = held_.begin(); it != held_.end();)
     {
-      Held h = std::move(held_.front());
-      held_.pop_front();
+      if (waiting_ && it->stamp > waiting_stamp_)
+      {
+        ++it;
+        continue;
+      }
+      Held h = std::move(*it);
+      held_.erase(it);
       admit(h.source, h.stamp, h.arrival, h.scan, now);
+      it = held_.begin();
     }
   }
 
