@@ -107,6 +107,14 @@ std::vector<std::int64_t> withoutWindow(std::vector<Arrival> arrivals, std::size
   return out;
 }
 
+/// The source sends nothing stamped `stop` or later.
+void stopSource(std::vector<Arrival>& arrivals, std::size_t source, std::int64_t stop)
+{
+  arrivals.erase(std::remove_if(arrivals.begin(), arrivals.end(),
+                                [&](const Arrival& a) { return a.source == source && a.stamp >= stop; }),
+                 arrivals.end());
+}
+
 void expectIncreasing(const std::vector<Output>& out)
 {
   for (std::size_t k = 1; k < out.size(); ++k)
@@ -179,9 +187,7 @@ TEST(SyncWindow, ADeadSourceDelaysNothingBeyondTheBound)
 {
   auto arrivals = sharedStamps(3, 20.0, 40, 0.02, 0.004);
   const std::int64_t stop = kStart + 20 * (kSecond / 20);
-  arrivals.erase(std::remove_if(arrivals.begin(), arrivals.end(),
-                                [&](const Arrival& a) { return a.source == 2 && a.stamp >= stop; }),
-                 arrivals.end());
+  stopSource(arrivals, 2, stop);
   const auto first = firstArrivals(arrivals);
   std::map<std::int64_t, double> last_live;  // last arrival of the live sources' scans of each stamp
   for (const auto& a : arrivals)
@@ -218,9 +224,7 @@ TEST(SyncWindow, ScansHeldBehindAWaitingOutputCompleteTheirOwn)
 {
   auto arrivals = sharedStamps(3, 20.0, 40, 0.02, 0.01);
   const std::int64_t stop = kStart + 20 * (kSecond / 20);
-  arrivals.erase(std::remove_if(arrivals.begin(), arrivals.end(),
-                                [&](const Arrival& a) { return a.source == 2 && a.stamp >= stop; }),
-                 arrivals.end());
+  stopSource(arrivals, 2, stop);
   const auto first = firstArrivals(arrivals);
   const auto out = play(arrivals, 3, 0.08);
   ASSERT_EQ(out.size(), 40u);
