@@ -74,10 +74,10 @@ class SharedStamps(unittest.TestCase):
     def wait_connected(self):
         deadline = time.monotonic() + 30.0
         while time.monotonic() < deadline and not rospy.is_shutdown():
-            if all(p.get_num_connections() > 0 for p in self.pubs):
+            if all(p.get_num_connections() > 0 for p in self.pubs) and self.merged.connected():
                 return
             time.sleep(0.05)
-        self.fail("the merger did not subscribe to the three sectors within 30 s")
+        self.fail("the merger and this test did not connect within 30 s")
 
     def play(self, frames, sources, first, rng):
         """Publishes `frames` frames from `sources` at RATE; returns {stamp key: frame}."""
