@@ -6,8 +6,13 @@
 // still due at a stamp and until when it is worth waiting for them. ROS-free.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
+#include <deque>
+#include <functional>
+#include <limits>
+#include <utility>
 #include <vector>
 
 namespace multi_laserscan_merger
@@ -48,8 +53,6 @@ public:
   /// arrived + window, never longer. `out` is reused (no allocation once grown).
   void decide(std::int64_t stamp, double now, Decision& out) const;
 
-  double window() const { return window_; }
-
 private:
   struct History
   {
@@ -69,16 +72,6 @@ private:
   std::vector<std::int64_t> timeouts_;  ///< ns
   std::vector<History> history_;
 };
-
-}  // namespace multi_laserscan_merger
-
-#include <deque>
-#include <functional>
-#include <limits>
-#include <utility>
-
-namespace multi_laserscan_merger
-{
 
 /// The publish policy of publish_rate 0 around StampSync: one output for every scan newer than
 /// the last output, stamped with the newest stamp held, published once every scan due at that
@@ -160,8 +153,6 @@ public:
       t = std::max(t, s);
     return t;
   }
-  /// The stamp of the last output published through add()/expire(), kNone before.
-  std::int64_t lastPublished() const { return last_published_; }
   static constexpr std::int64_t kNone = std::numeric_limits<std::int64_t>::min();
 
 private:
