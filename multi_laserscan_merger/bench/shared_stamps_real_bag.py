@@ -1,4 +1,3 @@
-#!/usr/bin/python3
 """sync_window before/after on a real recording (issue 18): /front_scan of
 test/data/real/dual_lidar_scans_demo.bag cut into three sectors, published as three sources with
 the scan's own stamp (each frame's three within 0-4 ms of bag time, in a random order), played
