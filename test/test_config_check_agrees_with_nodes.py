@@ -107,7 +107,11 @@ def test_merger_output_verdicts_agree(name, value):
 
 # Parameters the merger core takes beside its output and sources.
 MERGER_NODE_CHANGES = [("publish_rate", r) for r in (0.0, 1e-9, 1e-6, 10.0, -1.0)] + [
-    ("odom_queue_size", n) for n in (0, 1, 2, 100)]
+    ("odom_queue_size", n) for n in (0, 1, 2, 100)] + [
+    ("sync_window", w) for w in (0.0, 0.01, 1.0, 1.5, -0.01, math.inf, math.nan)]
+# sync_window against publish_rate: shorter than the publish period.
+MERGER_NODE_COMBINATIONS = [dict(publish_rate=50.0, sync_window=0.019), dict(publish_rate=50.0, sync_window=0.02),
+                            dict(publish_rate=200.0), dict(publish_rate=200.0, sync_window=0.0)]
 
 
 @pytest.mark.parametrize("name,value", MERGER_NODE_CHANGES)
@@ -119,6 +123,21 @@ def test_merger_node_verdicts_agree(name, value):
     except (ValueError, merger_core.ParameterError):
         core_ok = False
     assert checker_ok == core_ok, "%s = %r" % (name, value)
+
+
+@pytest.mark.parametrize("params", MERGER_NODE_COMBINATIONS)
+def test_merger_node_combinations_agree(params):
+    checker_ok = not cc.check_merger(dict(params, sources=[dict(SOURCE)]))
+    try:
+        merger_core.Merger({}, [dict(SOURCE)], **params)
+        core_ok = True
+    except (ValueError, merger_core.ParameterError):
+        core_ok = False
+    assert checker_ok == core_ok, params
+
+
+def test_merger_schema_has_the_core_default_sync_window():
+    assert same(cc.MERGER["sync_window"].default, merger_core.DEFAULT_SYNC_WINDOW)
 
 
 @pytest.mark.parametrize("output", MERGER_OUTPUT_COMBINATIONS)

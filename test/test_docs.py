@@ -82,6 +82,7 @@ COMMANDS = {
     "/usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cpu.py --clouds 100 --repeat 9":
     "depth_filter_scan_converter/test/test_per_point_reference.py",
     "/usr/bin/python3 multi_laserscan_merger/bench/measure_node_cost.py --seconds 20": CHECKED,
+    "/usr/bin/python3 multi_laserscan_merger/bench/shared_stamps_real_bag.py --windows 0 0.01": CHECKED,  # 3 min
     "cmake --build build --target depth_filter_scan_converter_benchmark": CHECKED,
     "cmake --build build --target multi_laserscan_merger_benchmark -j2": CHECKED,
     "taskset -c 1 build/devel/lib/depth_filter_scan_converter/depth_filter_scan_converter_benchmark "

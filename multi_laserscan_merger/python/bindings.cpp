@@ -112,6 +112,8 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
 {
   m.doc() = "ROS-free core of multi_laserscan_merger (times in seconds, angles in radians, ranges in metres)";
   py::register_local_exception<ParameterError>(m, "ParameterError", PyExc_ValueError);
+  // Defaults of the parameters the Merger constructor takes beside output and sources (s).
+  m.attr("DEFAULT_SYNC_WINDOW") = MergerParams().sync_window;
 
   m.def("fast_atan2", &laserscan_common::fastAtan2, py::arg("y"), py::arg("x"));
   m.def(
@@ -182,16 +184,19 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
     .def("__len__", &OdometryBuffer::size);
 
   py::class_<MergerCore>(m, "Merger")
-    .def(py::init([](const py::dict& output, const py::list& sources, int odom_queue_size, double publish_rate) {
+    .def(py::init([](const py::dict& output, const py::list& sources, int odom_queue_size, double publish_rate,
+                     double sync_window) {
            MergerParams p;
            p.output = outputFromDict(output);
            p.odom_queue_size = odom_queue_size;
            p.publish_rate = publish_rate;
+           p.sync_window = sync_window;
            for (const auto& s : sources)
              p.sources.push_back(sourceFromDict(s.cast<py::dict>()));
            return new MergerCore(p);
          }),
-         py::arg("output"), py::arg("sources"), py::arg("odom_queue_size") = 100, py::arg("publish_rate") = 0.0)
+         py::arg("output"), py::arg("sources"), py::arg("odom_queue_size") = 100, py::arg("publish_rate") = 0.0,
+         py::arg("sync_window") = MergerParams().sync_window)
     .def_property_readonly("beam_count", &MergerCore::beamCount)
     .def(
       "merge",

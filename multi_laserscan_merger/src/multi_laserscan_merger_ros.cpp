@@ -166,6 +166,7 @@ MergerParams loadParams(const ros::NodeHandle& pnh)
     throw ParameterError("odom_queue_size", "must be a whole number of messages");
   p.odom_queue_size = static_cast<int>(queue);
   readDouble(pnh, "publish_rate", p.publish_rate);
+  readDouble(pnh, "sync_window", p.sync_window);
 
   XmlRpc::XmlRpcValue list;
   if (!pnh.getParam("sources", list))
@@ -207,6 +208,28 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
                name_.c_str(), odom_topic_.c_str(), frame_id.c_str(), used.c_str());
     });
   inputs_.resize(params_.sources.size());
+  std::vector<double> timeouts;
+  for (const auto& sp : params_.sources)
+    timeouts.push_back(sp.timeout);
+  SyncedOutputs<ScanInMerge>::Handlers handlers;
+  handlers.merge = [this](std::size_t i, const ScanInMerge& scan) {
+    sources_[i].scan = scan.msg;
+    sources_[i].output_T_sensor = scan.output_T_sensor;
+  };
+  handlers.wait = [this](std::int64_t, const StampSync::Decision& d) {
+    for (std::size_t j : d.due)
+      ++sources_[j].waited_for;
+    armSyncTimer(d.deadline);
+  };
+  handlers.publish = [this](std::int64_t stamp, const StampSync::Decision& d, bool waited) {
+    const ros::Time t = ros::Time().fromNSec(static_cast<std::uint64_t>(stamp));  // exact: nsecs < 1e9
+    reportSync(t, d, waited);
+    mergeAndPublish(t);
+  };
+  outputs_ = std::make_unique<SyncedOutputs<ScanInMerge>>(params_.sync_window, timeouts, params_.publish_rate <= 0.0,
+                                                          std::move(handlers));
+  sync_timer_ = nh_.createSteadyTimer(
+    ros::WallDuration(1.0), [this](const ros::SteadyTimerEvent&) { syncTimerCallback(); }, true, false);
   tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, name_);
   last_now_ = ros::Time::now();
   last_report_ = ros::WallTime::now();
@@ -217,6 +240,7 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
     updater_->add("source " + params_.sources[i].name,
                   [this, i](diagnostic_updater::DiagnosticStatusWrapper& s) { sourceDiagnostics(i, s); });
   updater_->add("odometry", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { odometryDiagnostics(s); });
+  updater_->add("output", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { outputDiagnostics(s); });
 
   pub_ = nh_.advertise<sensor_msgs::LaserScan>(kOutputTopic, 10);
   for (std::size_t i = 0; i < sources_.size(); ++i)
@@ -234,9 +258,12 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
     publish_timer_ = nh_.createTimer(ros::Duration(1.0 / params_.publish_rate),
                                      [this](const ros::TimerEvent& e) { timerCallback(e); });
   diagnostics_timer_ = laserscan_common::diagnosticsTimer(nh_, *updater_);
-  ROS_INFO("%s: merging %zu sources into '%s' on '%s' (%zu beams), publish_rate %.1f Hz, motion compensation %s",
-           name_.c_str(), sources_.size(), params_.output.frame.c_str(), output_topic.c_str(), core_->beamCount(),
-           params_.publish_rate, params_.odom_topic.empty() ? "off" : ("from '" + params_.odom_topic + "'").c_str());
+  ROS_INFO(
+    "%s: merging %zu sources into '%s' on '%s' (%zu beams), publish_rate %.1f Hz, sync_window %.3f s, motion "
+    "compensation %s",
+    name_.c_str(), sources_.size(), params_.output.frame.c_str(), output_topic.c_str(), core_->beamCount(),
+    params_.publish_rate, params_.sync_window,
+    params_.odom_topic.empty() ? "off" : ("from '" + params_.odom_topic + "'").c_str());
 }
 
 void MultiLaserScanMergerRos::checkTimeJump()
@@ -265,6 +292,8 @@ void MultiLaserScanMergerRos::clearAll(const std::string& why, const std::string
   odom_.clear();
   odom_newest_ = ros::Time();
   last_published_ = ros::Time();
+  outputs_->reset();
+  tick_deferred_ = false;
 }
 
 bool MultiLaserScanMergerRos::tryTransform(const std::string& frame, const ros::Time& stamp,
@@ -418,25 +447,70 @@ void MultiLaserScanMergerRos::retryPending()
 void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg,
                                      const Eigen::Isometry3d& output_T_sensor)
 {
-  // A scan older than the one already kept (a late pending one) is not newer information; its
-  // mount must not replace the kept scan's either (a moving mount would misplace it).
-  if (sources_[i].scan && msg->header.stamp < sources_[i].scan->header.stamp)
+  // outputs_ keeps the scan (unless older than the one kept: a late pending one is not newer
+  // information, and its mount must not replace the kept scan's either). publish_rate 0: one
+  // output per new scan, at the newest scan's stamp, once the scans of the other sources due at
+  // that stamp are in (or sync_window ended). A scan older than the last output (a sensor a
+  // little behind another) would give a second output with a stamp already published, which
+  // consumers that key on stamps take for the same scan: it goes into the next output instead.
+  const double now = ros::SteadyTime::now().toSec();
+  outputs_->add(i, static_cast<std::int64_t>(msg->header.stamp.toNSec()), now, ScanInMerge{ msg, output_T_sensor },
+                now);
+  if (tick_deferred_)
+    publishTick(false);
+}
+
+void MultiLaserScanMergerRos::armSyncTimer(double deadline)
+{
+  sync_timer_.stop();
+  sync_timer_.setPeriod(ros::WallDuration(std::max(0.0, deadline - ros::SteadyTime::now().toSec())));
+  sync_timer_.start();
+}
+
+void MultiLaserScanMergerRos::syncTimerCallback()
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  const double now = ros::SteadyTime::now().toSec();
+  if (tick_deferred_)
+  {
+    if (now < tick_deadline_)
+      armSyncTimer(tick_deadline_);  // a timer of an earlier window, or a little early
+    else
+      publishTick(true);
     return;
-  sources_[i].scan = msg;
-  sources_[i].output_T_sensor = output_T_sensor;
-  if (params_.publish_rate > 0.0)
+  }
+  if (!outputs_->waiting())
+    return;  // completed before the window ended
+  if (now < outputs_->deadline())
+  {
+    armSyncTimer(outputs_->deadline());  // a timer of an earlier window, or a little early
     return;
-  // publish_rate 0: one output per new scan, at the newest scan's stamp. A scan older than
-  // that stamp (a sensor a little behind another) would give a second output with the stamp
-  // already published, which consumers that key on stamps take for the same scan: it is held
-  // and goes into the next output instead.
-  ros::Time t_out = msg->header.stamp;
-  for (const auto& s : sources_)
-    if (s.scan)
-      t_out = std::max(t_out, s.scan->header.stamp);
-  if (!last_published_.isZero() && t_out <= last_published_)
+  }
+  outputs_->expire(now);
+}
+
+void MultiLaserScanMergerRos::reportSync(const ros::Time& stamp, const StampSync::Decision& decision, bool waited)
+{
+  if (waited)
+    ++outputs_waited_;
+  if (decision.due.empty())
     return;
-  mergeAndPublish(t_out);
+  ++outputs_incomplete_;
+  std::string names;
+  for (std::size_t j : decision.due)
+  {
+    SourceState& s = sources_[j];
+    const SourceParams& sp = params_.sources[j];
+    ++s.missing_at_window;
+    names += (names.empty() ? "'" : ", '") + sp.name + "'";
+    if (s.warnings.due("late for sync_window"))
+      ROS_WARN(
+        "%s: source '%s' (%s): its scan stamped %.6f, the stamp of other sources' scans, was due and did not come "
+        "within sync_window %.3f s: output published without it (it goes into a later output when it comes; a "
+        "larger sync_window waits longer for it, 0 never waits)",
+        name_.c_str(), sp.name.c_str(), sp.topic.c_str(), stamp.toSec(), params_.sync_window);
+  }
+  last_incomplete_ = laserscan_common::stampText(stamp.sec, stamp.nsec) + " without " + names;
 }
 
 void MultiLaserScanMergerRos::odomCallback(const nav_msgs::Odometry::ConstPtr& msg)
@@ -494,6 +568,8 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
     for (auto& s : sources_)
       s.scan.reset();  // they belong to the other timeline
     last_published_ = ros::Time();
+    outputs_->reset();
+    tick_deferred_ = false;
   }
   if (r != OdometryBuffer::AddResult::kOutOfOrder)
     odom_newest_ = msg->header.stamp;
@@ -506,6 +582,11 @@ void MultiLaserScanMergerRos::timerCallback(const ros::TimerEvent&)
   std::lock_guard<std::mutex> lock(mutex_);
   checkTimeJump();
   retryPending();
+  publishTick(false);
+}
+
+void MultiLaserScanMergerRos::publishTick(bool at_deadline)
+{
   // With a rate, the output is synchronised to the newest data there is: the newest scan, or
   // the newest odometry when it is newer (everything moved to it). Never now(): no pose is known
   // for it. A tick with nothing newer than the last output publishes nothing.
@@ -518,11 +599,36 @@ void MultiLaserScanMergerRos::timerCallback(const ros::TimerEvent&)
       any = true;
     }
   if (!any)
+  {
+    tick_deferred_ = false;
     return;
+  }
   if (!odom_.empty())
     t_out = std::max(t_out, odom_newest_);
   if (!last_published_.isZero() && t_out <= last_published_)
+  {
+    tick_deferred_ = false;
     return;
+  }
+  // Scans of the newest scan's stamp still due from other sources: the tick waits for them, up
+  // to the end of the window that the first of them opened.
+  const double now = ros::SteadyTime::now().toSec();
+  const bool complete = outputs_->complete(now);
+  const StampSync::Decision& decision = outputs_->lastDecision();
+  if (!complete && !at_deadline)
+  {
+    if (!tick_deferred_)
+    {
+      tick_deferred_ = true;
+      tick_deadline_ = decision.deadline;
+      for (std::size_t j : decision.due)
+        ++sources_[j].waited_for;
+      armSyncTimer(decision.deadline);
+    }
+    return;
+  }
+  reportSync(t_out, decision, tick_deferred_);
+  tick_deferred_ = false;
   mergeAndPublish(t_out);
 }
 
@@ -625,6 +731,7 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
   msg->ranges = merged_.ranges;
   msg->intensities = merged_.intensities;
   last_published_ = stamp;
+  ++outputs_published_;
   pub_.publish(sensor_msgs::LaserScan::ConstPtr(msg));  // zero-copy in a manager; not touched afterwards
 }
 
@@ -652,6 +759,8 @@ void MultiLaserScanMergerRos::sourceDiagnostics(std::size_t i, diagnostic_update
   stat.add("malformed scans", s.malformed);
   stat.add("scans dropped", s.dropped);
   stat.add("last drop reason", s.last_drop.empty() ? "none" : s.last_drop);
+  stat.add("outputs that waited for its scan (sync_window)", s.waited_for);
+  stat.add("outputs published without its due scan", s.missing_at_window);
   using diagnostic_msgs::DiagnosticStatus;
   if (s.received == 0)
     stat.summary(DiagnosticStatus::WARN, "no scan received yet");
@@ -671,6 +780,25 @@ void MultiLaserScanMergerRos::sourceDiagnostics(std::size_t i, diagnostic_update
                   s.last_drop.c_str());
   else
     stat.summary(DiagnosticStatus::OK, "merged");
+}
+
+void MultiLaserScanMergerRos::outputDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::size_t incomplete_now = outputs_incomplete_ - incomplete_at_last_report_;
+  incomplete_at_last_report_ = outputs_incomplete_;
+  stat.add("merged scan topic", pub_.getTopic());
+  stat.add("outputs published", outputs_published_);
+  stat.add("sync_window (s)", params_.sync_window);
+  stat.add("outputs that waited for scans of their stamp", outputs_waited_);
+  stat.add("outputs published without a due scan", outputs_incomplete_);
+  stat.add("last output without a due scan", last_incomplete_.empty() ? "none" : last_incomplete_);
+  if (incomplete_now > 0)
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                  "%zu outputs since the last report published without a scan due at their stamp (last: %s)",
+                  incomplete_now, last_incomplete_.c_str());
+  else
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::OK, "%zu published", outputs_published_);
 }
 
 void MultiLaserScanMergerRos::odometryDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat)

@@ -97,6 +97,11 @@ void MergerParams::validate() const
     throw ParameterError("publish_rate", "must be a finite value >= 0 Hz (0 = one output per input scan)");
   if (publish_rate > 0.0 && publish_rate < kMinPublishRate)
     throw ParameterError("publish_rate", "must be 0 or at least 1e-6 Hz (a period must fit a ros::Duration)");
+  if (!std::isfinite(sync_window) || sync_window < 0.0 || sync_window > kMaxSyncWindow)
+    throw ParameterError("sync_window",
+                         "must be a finite value in [0, 1] s (0 = never wait for scans of a shared stamp)");
+  if (publish_rate > 0.0 && sync_window * publish_rate >= 1.0)
+    throw ParameterError("sync_window", "must be shorter than the publish period 1 / publish_rate");
   if (sources.empty())
     throw ParameterError("sources", "at least one source is needed");
   std::set<std::string> names;

@@ -87,6 +87,8 @@ MERGER = {
     # the merger reads it as a number that must be whole (100 and 100.0 both work)
     "odom_queue_size": Key("whole", 100, lo=2, doc="odometry poses kept (interpolation needs two)"),
     "publish_rate": Key("float", 0.0, "Hz", lo=0.0),
+    "sync_window": Key("float", 0.01, "s", lo=0.0, hi=1.0, finite=True,
+                       doc="how long an output waits for other sources' scans due at its stamp; 0 = never"),
     "sources": None,  # checked by check_sources
 }
 MERGER_PAIRS = [("angle_min", "angle_max"), ("range_min", "range_max")]
@@ -267,6 +269,9 @@ def _check_merger_output(params, prefix):
     rate = get("publish_rate")
     if _num(rate) and 0.0 < float(rate) < 1e-6:
         problems.append("%s: must be 0 or at least 1e-6 Hz" % _join(prefix, "publish_rate"))
+    window = get("sync_window")
+    if _num(rate) and _num(window) and float(rate) > 0.0 and float(window) * float(rate) >= 1.0:
+        problems.append("%s: must be shorter than the publish period 1 / publish_rate" % _join(prefix, "sync_window"))
     return problems
 
 

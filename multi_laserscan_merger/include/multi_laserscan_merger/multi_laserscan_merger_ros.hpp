@@ -17,6 +17,7 @@
 #include "laserscan_common/throttle.hpp"
 #include "laserscan_common/transform_reader.hpp"
 #include "multi_laserscan_merger/merger_core.hpp"
+#include "multi_laserscan_merger/stamp_sync.hpp"
 
 namespace multi_laserscan_merger
 {
@@ -58,6 +59,8 @@ private:
     std::size_t dropped = 0, dropped_at_last_report = 0;  ///< malformed + transform failures
     std::string last_drop;                                ///< why the last scan was dropped
     double last_timed_out_stamp = -1.0;
+    std::size_t waited_for = 0;         ///< outputs that waited for its scan of their stamp (sync_window)
+    std::size_t missing_at_window = 0;  ///< outputs published without its due scan at the window's end
     ros::Subscriber sub;
   };
 
@@ -74,9 +77,17 @@ private:
   /// output_T_sensor at stamp; false (with the reason in error) when tf2 has none or it is not finite.
   bool tryTransform(const std::string& frame, const ros::Time& stamp, Eigen::Isometry3d& output_T_sensor,
                     std::string& error);
-  /// Keeps msg with the mount it was transformed with, unless an older scan than the one kept.
+  /// Keeps msg with the mount it was transformed with, unless an older scan than the one kept;
+  /// with publish_rate 0 publishes (now or when the scans due at its stamp are in: outputs_).
   void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg,
               const Eigen::Isometry3d& output_T_sensor);
+  /// publish_rate > 0: publishes at the newest data unless scans of the newest stamp are still
+  /// due within sync_window (then the tick waits for them, never past the window's end).
+  void publishTick(bool at_deadline);
+  void syncTimerCallback();
+  void armSyncTimer(double deadline);
+  /// Counts an output that waited or misses due scans, and names the late sources (throttled).
+  void reportSync(const ros::Time& stamp, const StampSync::Decision& decision, bool waited);
   void drop(std::size_t source, std::string why);
   void retryPending();
   /// t_out is the stamp of a scan or an odometry message: published bit for bit.
@@ -86,6 +97,7 @@ private:
 
   void sourceDiagnostics(std::size_t source, diagnostic_updater::DiagnosticStatusWrapper& stat);
   void odometryDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void outputDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   ros::NodeHandle nh_, private_nh_;
   std::string name_;  ///< for messages
@@ -110,6 +122,23 @@ private:
   std::vector<SourceStatus> status_;
   MergedScan merged_;
   ros::Time last_published_;  ///< zero: nothing published on this timeline yet
+  /// A source's scan as it goes into the merge: the message and its mount at the scan's stamp.
+  struct ScanInMerge
+  {
+    sensor_msgs::LaserScan::ConstPtr msg;
+    Eigen::Isometry3d output_T_sensor;
+  };
+  /// When an output may be published (sources sharing stamps wait for each other, sync_window).
+  std::unique_ptr<SyncedOutputs<ScanInMerge>> outputs_;
+  /// Fires at the end of a window. Steady (wall) time: the window bounds the latency a consumer
+  /// sees, and never stalls while a simulated clock stands still (a bag paused or ended); a bag
+  /// played faster than real time still delivers the scans of one stamp close together in wall time.
+  ros::SteadyTimer sync_timer_;
+  bool tick_deferred_ = false;  ///< publish_rate > 0: a tick waits for scans of its stamp
+  double tick_deadline_ = 0.0;  ///< until then (s, steady clock)
+  std::size_t outputs_published_ = 0, outputs_waited_ = 0, outputs_incomplete_ = 0;
+  std::size_t incomplete_at_last_report_ = 0;
+  std::string last_incomplete_;  ///< the last output published without a due scan, and whose
   ros::Time last_now_;
   ros::WallTime last_report_;
 

@@ -77,6 +77,9 @@ struct SourceParams
 /// Smallest publish_rate (Hz) other than 0: its period must fit a ros::Duration (2^31 s).
 constexpr double kMinPublishRate = 1e-6;
 
+/// Largest sync_window (s): it is a bound on latency, meant to be milliseconds.
+constexpr double kMaxSyncWindow = 1.0;
+
 /// Everything the merger needs.
 struct MergerParams
 {
@@ -84,6 +87,11 @@ struct MergerParams
   std::string odom_topic = "odom";  ///< empty disables motion compensation
   int odom_queue_size = 100;        ///< odometry messages kept
   double publish_rate = 0.0;        ///< Hz; 0 = one output for every new input scan
+  /// s; how long an output waits for the scans of other sources due at its stamp (sources that
+  /// share stamps: stamp_sync.hpp); 0 = never waits. 10 ms: a quarter of a 40 Hz output's period,
+  /// several times the spread with which one instant's scans of one driver or of two converters
+  /// of one camera arrive.
+  double sync_window = 0.01;
   std::vector<SourceParams> sources;
 
   /// Validates everything including cross-field checks (duplicate names, >= 1 source).

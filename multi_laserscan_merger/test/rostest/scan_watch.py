@@ -93,6 +93,10 @@ class ScanWatch:
             self.problems.extend((stamp_key(msg.header.stamp), p) for p in problems)
             self._cv.notify_all()
 
+    def connected(self):
+        """A publisher of the topic is connected (its first messages are not lost)."""
+        return self._sub.get_num_connections() > 0
+
     def count(self):
         with self._cv:
             return len(self.messages)
