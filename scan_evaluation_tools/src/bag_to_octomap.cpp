@@ -51,7 +51,7 @@ struct Options
   std::string base_frame = "base_link";
   double band_min = 0.05;  // m above the floor
   double band_max = 1.0;
-  double depth_interval = 0.0;  // s between two depth messages of one topic inserted (0: all)
+  double min_interval = 0.0;  // s between two messages of one topic inserted (0: all)
   double duration = 0.0;        // s of the bag read from its start (0: all)
   scan_evaluation_tools::OctoMapParameters octomap;
 };
@@ -60,7 +60,7 @@ const char* const kUsage =
   "usage: bag_to_octomap BAG OUTPUT_DIR (--pose-topic TOPIC | --poses FILE) [--depth-topic TOPIC]...\n"
   "                      [--cloud-topic TOPIC]... [--scan-topic TOPIC]... [--base-frame FRAME]\n"
   "                      [--resolution M] [--max-range M] [--band-min M] [--band-max M]\n"
-  "                      [--depth-interval S] [--duration S]\n"
+  "                      [--min-interval S] [--duration S]\n"
   "Inserts every depth image (with the camera_info beside it), cloud and scan into an OctoMap OcTree\n"
   "from its sensor's origin (robot pose from the pose source, mount from /tf_static and /tf) and writes\n"
   "OUTPUT_DIR/octomap.bt, projected_map.pgm + .yaml (the height band) and figures.json.\n"
@@ -119,8 +119,8 @@ Options parseOptions(int argc, char** argv)
       o.band_min = number(a, value());
     else if (a == "--band-max")
       o.band_max = number(a, value());
-    else if (a == "--depth-interval")
-      o.depth_interval = number(a, value());
+    else if (a == "--min-interval")
+      o.min_interval = number(a, value());
     else if (a == "--duration")
       o.duration = number(a, value());
     else if (a == "-h" || a == "--help")
@@ -145,9 +145,9 @@ Options parseOptions(int argc, char** argv)
   {
     throw std::invalid_argument("give at least one --depth-topic, --cloud-topic or --scan-topic");
   }
-  if (!(o.depth_interval >= 0.0) || !(o.duration >= 0.0))
+  if (!(o.min_interval >= 0.0) || !(o.duration >= 0.0))
   {
-    throw std::invalid_argument("--depth-interval and --duration must be >= 0 s");
+    throw std::invalid_argument("--min-interval and --duration must be >= 0 s");
   }
   if (!(o.band_min < o.band_max))
   {
@@ -382,22 +382,22 @@ int run(const Options& o)
   const ros::Time begin = everything.getBeginTime();
   const ros::Time end = o.duration > 0.0 ? std::min(everything.getEndTime(), begin + ros::Duration(o.duration))
                                          : everything.getEndTime();
-  std::map<std::string, double> last_depth_stamp;
-  std::size_t depth_thinned = 0;
+  std::map<std::string, double> last_inserted;  // bag time per topic
+  std::size_t thinned = 0;
   rosbag::View data(bag, rosbag::TopicQuery(data_topics), begin, end);
   for (const rosbag::MessageInstance& m : data)
   {
     points.clear();
-    if (o.depth_interval > 0.0 && !scan_topics.count(m.getTopic()))
+    if (o.min_interval > 0.0)
     {
-      const double stamp = m.getTime().toSec();  // bag time: thinning needs no deserialisation
-      auto last = last_depth_stamp.find(m.getTopic());
-      if (last != last_depth_stamp.end() && stamp - last->second < o.depth_interval)
+      const double t = m.getTime().toSec();  // bag time: thinning needs no deserialisation
+      const auto last = last_inserted.find(m.getTopic());
+      if (last != last_inserted.end() && t - last->second < o.min_interval)
       {
-        ++depth_thinned;  // on purpose, not an error
+        ++thinned;  // on purpose, not an error
         continue;
       }
-      last_depth_stamp[m.getTopic()] = stamp;
+      last_inserted[m.getTopic()] = t;
     }
     std_msgs::Header header;
     try
@@ -512,8 +512,8 @@ int run(const Options& o)
           << ",\n  \"tree_nodes\": " << map.tree().size() << ",\n  \"tree_leaves\": " << map.tree().getNumLeafNodes()
           << ",\n  \"tree_memory_mb\": " << jsonNumber(static_cast<double>(map.tree().memoryUsage()) / 1e6)
           << ",\n  \"points_inserted\": " << map.pointsInserted() << ",\n  \"depth_messages_inserted\": "
-          << depth_inserted << ",\n  \"depth_messages_thinned\": " << depth_thinned
-          << ",\n  \"depth_interval_s\": " << jsonNumber(o.depth_interval) << ",\n  \"scans_inserted\": " << scans_inserted
+          << depth_inserted << ",\n  \"messages_thinned\": " << thinned
+          << ",\n  \"min_interval_s\": " << jsonNumber(o.min_interval) << ",\n  \"scans_inserted\": " << scans_inserted
           << ",\n  \"projected_map\": {\"width\": " << projected.width << ", \"height\": " << projected.height
           << ", \"occupied_cells\": " << projected.occupied() << "},\n  \"left_out\": {";
   const char* separator = "";

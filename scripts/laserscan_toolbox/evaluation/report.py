@@ -228,6 +228,9 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
                          for n, v in m.items() if isinstance(v, dict) and "iou" in v]),
                   "", "![maps](maps/maps.png)", ""]
     lines += slam_section(results)
+    if "octomap" in results:
+        from .octomap_comparison import section
+        lines += section(results["octomap"])
     lines += ["## Inputs (bag)", "",
               "Age: bag time minus header stamp, i.e. how old a message already was when "
               "recorded; an output's latency includes its inputs' age.", "",
@@ -425,6 +428,12 @@ def summary_text(res):
                          t, fmt(v["path_rmse_m"], 1, 3), fmt(v["odometry_rmse_m"], 1, 3),
                          fmt(v["map_precision"], 100), fmt(v["map_recall"], 100),
                          fmt(v["obstacles_3d_found"], 100), fmt(loc.get("rmse_m"), 1, 3)))
+    for r in res.get("octomap", {}).get("runs", []):
+        lines.append("  %-8s %5.2f m: CPU %s s per s of data, map %s MB, peak %s MB, 3D obstacles "
+                     "found %s%%, precision %s%%" % (
+                         r["method"], r["resolution_m"], fmt(r["cpu_s_per_s"], 1, 3),
+                         fmt(r["map_memory_mb"], 1, 3), fmt(r["peak_memory_mb"], 1, 0),
+                         fmt(r["obstacles_3d_found"], 100), fmt(r["map_precision"], 100)))
     for c in res["thresholds"]:
         lines.append("  %s %s" % ("PASS" if c["ok"] else "FAIL", c["check"]))
     return "\n".join(lines)
