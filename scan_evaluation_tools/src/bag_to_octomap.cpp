@@ -49,6 +49,7 @@ struct Options
   std::string pose_topic;
   std::string poses_file;
   std::string base_frame = "base_link";
+  std::string voxels_file;  // the leaves as text (tests, plots)
   double band_min = 0.05;  // m above the floor
   double band_max = 1.0;
   double min_interval = 0.0;  // s between two messages of one topic inserted (0: all)
@@ -60,7 +61,7 @@ const char* const kUsage =
   "usage: bag_to_octomap BAG OUTPUT_DIR (--pose-topic TOPIC | --poses FILE) [--depth-topic TOPIC]...\n"
   "                      [--cloud-topic TOPIC]... [--scan-topic TOPIC]... [--base-frame FRAME]\n"
   "                      [--resolution M] [--max-range M] [--band-min M] [--band-max M]\n"
-  "                      [--min-interval S] [--duration S]\n"
+  "                      [--min-interval S] [--duration S] [--voxels FILE]\n"
   "Inserts every depth image (with the camera_info beside it), cloud and scan into an OctoMap OcTree\n"
   "from its sensor's origin (robot pose from the pose source, mount from /tf_static and /tf) and writes\n"
   "OUTPUT_DIR/octomap.bt, projected_map.pgm + .yaml (the height band) and figures.json.\n"
@@ -123,6 +124,8 @@ Options parseOptions(int argc, char** argv)
       o.min_interval = number(a, value());
     else if (a == "--duration")
       o.duration = number(a, value());
+    else if (a == "--voxels")
+      o.voxels_file = value();
     else if (a == "-h" || a == "--help")
     {
       std::cout << kUsage;
@@ -495,6 +498,22 @@ int run(const Options& o)
     return 1;
   }
   writeProjectedMap(projected, o.output_dir + "/projected_map");
+  if (!o.voxels_file.empty())
+  {
+    std::ofstream voxels(o.voxels_file);
+    voxels << "# x y z size occupied: one leaf of the tree per line (m, centre and edge; 1 occupied, 0 free)\n";
+    const auto& tree = map.tree();
+    for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it)
+    {
+      voxels << it.getX() << ' ' << it.getY() << ' ' << it.getZ() << ' ' << it.getSize() << ' '
+             << (tree.isNodeOccupied(*it) ? 1 : 0) << '\n';
+    }
+    if (!voxels)
+    {
+      std::cerr << "bag_to_octomap: cannot write " << o.voxels_file << "\n";
+      return 1;
+    }
+  }
   const double cpu = processCpuSeconds() - cpu_start;
   const double octomap_cpu = insert_cpu + update_cpu;
   rusage usage{};
