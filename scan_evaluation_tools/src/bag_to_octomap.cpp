@@ -50,10 +50,10 @@ struct Options
   std::string poses_file;
   std::string base_frame = "base_link";
   std::string voxels_file;  // the leaves as text (tests, plots)
-  double band_min = 0.05;  // m above the floor
+  double band_min = 0.05;   // m above the floor
   double band_max = 1.0;
   double min_interval = 0.0;  // s between two messages of one topic inserted (0: all)
-  double duration = 0.0;        // s of the bag read from its start (0: all)
+  double duration = 0.0;      // s of the bag read from its start (0: all)
   scan_evaluation_tools::OctoMapParameters octomap;
 };
 
@@ -227,7 +227,8 @@ void cloudPoints(const sensor_msgs::PointCloud2& cloud, octomap::Pointcloud& poi
   }
   for (const char* name : { "x", "y", "z" })
   {
-    const auto f = std::find_if(cloud.fields.begin(), cloud.fields.end(), [&](const auto& f) { return f.name == name; });
+    const auto f =
+      std::find_if(cloud.fields.begin(), cloud.fields.end(), [&](const auto& f) { return f.name == name; });
     if (f == cloud.fields.end() || f->datatype != sensor_msgs::PointField::FLOAT32)
     {
       throw std::invalid_argument(std::string("cloud without a FLOAT32 field '") + name + "'");
@@ -260,8 +261,8 @@ void writeProjectedMap(const scan_evaluation_tools::ProjectedMap& map, const std
   std::ofstream yaml(base + ".yaml");
   const auto slash = base.rfind('/');
   yaml.precision(10);
-  yaml << "image: " << base.substr(slash == std::string::npos ? 0 : slash + 1) << ".pgm\nresolution: "
-       << map.resolution << "\norigin: [" << map.origin_x << ", " << map.origin_y
+  yaml << "image: " << base.substr(slash == std::string::npos ? 0 : slash + 1) << ".pgm\nresolution: " << map.resolution
+       << "\norigin: [" << map.origin_x << ", " << map.origin_y
        << ", 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
   if (!pgm || !yaml)
   {
@@ -344,7 +345,8 @@ int run(const Options& o)
       const bool is_static = m.getTopic() == "/tf_static";
       for (const auto& t : msg->transforms)
       {
-        bool bad = tf_gate.fault(t, is_static, static_cast<std::int64_t>(m.getTime().toNSec()), tf_max_ahead) != nullptr;
+        bool bad =
+          tf_gate.fault(t, is_static, static_cast<std::int64_t>(m.getTime().toNSec()), tf_max_ahead) != nullptr;
         if (!bad)
         {
           try
@@ -383,8 +385,8 @@ int run(const Options& o)
   double update_cpu = 0.0;  // inner nodes and pruning after each cloud
   std::size_t depth_inserted = 0, scans_inserted = 0;
   const ros::Time begin = everything.getBeginTime();
-  const ros::Time end = o.duration > 0.0 ? std::min(everything.getEndTime(), begin + ros::Duration(o.duration))
-                                         : everything.getEndTime();
+  const ros::Time end =
+    o.duration > 0.0 ? std::min(everything.getEndTime(), begin + ros::Duration(o.duration)) : everything.getEndTime();
   std::map<std::string, double> last_inserted;  // bag time per topic
   std::size_t thinned = 0;
   rosbag::View data(bag, rosbag::TopicQuery(data_topics), begin, end);
@@ -416,8 +418,8 @@ int run(const Options& o)
           continue;
         }
         scan_evaluation_tools::depthImagePoints(image->data.data(), image->data.size(), image->width, image->height,
-                                                image->step, image->encoding, image->is_bigendian != 0,
-                                                info->second, points);
+                                                image->step, image->encoding, image->is_bigendian != 0, info->second,
+                                                points);
       }
       else if (auto cloud = m.instantiate<sensor_msgs::PointCloud2>())
       {
@@ -530,8 +532,8 @@ int run(const Options& o)
           << ",\n  \"peak_rss_mb\": " << jsonNumber(static_cast<double>(usage.ru_maxrss) / 1024.0)
           << ",\n  \"tree_nodes\": " << map.tree().size() << ",\n  \"tree_leaves\": " << map.tree().getNumLeafNodes()
           << ",\n  \"tree_memory_mb\": " << jsonNumber(static_cast<double>(map.tree().memoryUsage()) / 1e6)
-          << ",\n  \"points_inserted\": " << map.pointsInserted() << ",\n  \"depth_messages_inserted\": "
-          << depth_inserted << ",\n  \"messages_thinned\": " << thinned
+          << ",\n  \"points_inserted\": " << map.pointsInserted()
+          << ",\n  \"depth_messages_inserted\": " << depth_inserted << ",\n  \"messages_thinned\": " << thinned
           << ",\n  \"min_interval_s\": " << jsonNumber(o.min_interval) << ",\n  \"scans_inserted\": " << scans_inserted
           << ",\n  \"projected_map\": {\"width\": " << projected.width << ", \"height\": " << projected.height
           << ", \"occupied_cells\": " << projected.occupied() << "},\n  \"left_out\": {";

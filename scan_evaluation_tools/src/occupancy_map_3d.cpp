@@ -43,8 +43,8 @@ void addDepthPoints(const std::uint8_t* data, std::uint32_t width, std::uint32_t
       {
         continue;  // no measurement
       }
-      points.push_back(static_cast<float>((static_cast<double>(u) - c.cx) * inv_fx * z),
-                       static_cast<float>(dy * z), static_cast<float>(z));
+      points.push_back(static_cast<float>((static_cast<double>(u) - c.cx) * inv_fx * z), static_cast<float>(dy * z),
+                       static_cast<float>(z));
     }
   }
 }
@@ -66,7 +66,8 @@ void OctoMapParameters::validate() const
   requireProbability("clamp_max", clamp_max);
   if (!(prob_hit > 0.5 && prob_miss < 0.5))
   {
-    throw laserscan_common::ParameterError("prob_hit", "a hit must raise (> 0.5) and a miss lower (< 0.5) the occupancy");
+    throw laserscan_common::ParameterError("prob_hit",
+                                           "a hit must raise (> 0.5) and a miss lower (< 0.5) the occupancy");
   }
   if (!(clamp_min < clamp_max))
   {
@@ -75,8 +76,8 @@ void OctoMapParameters::validate() const
 }
 
 void depthImagePoints(const std::uint8_t* data, std::size_t size, std::uint32_t width, std::uint32_t height,
-                      std::uint32_t row_step, const std::string& encoding, bool big_endian,
-                      const PinholeCamera& camera, octomap::Pointcloud& points)
+                      std::uint32_t row_step, const std::string& encoding, bool big_endian, const PinholeCamera& camera,
+                      octomap::Pointcloud& points)
 {
   const bool mm = encoding == "16UC1" || encoding == "mono16";
   if (!mm && encoding != "32FC1")
@@ -84,12 +85,11 @@ void depthImagePoints(const std::uint8_t* data, std::size_t size, std::uint32_t 
     throw std::invalid_argument("depth encoding '" + encoding + "' (expected 16UC1 or 32FC1)");
   }
   const std::size_t pixel = mm ? 2 : 4;
-  if (static_cast<std::size_t>(row_step) < width * pixel ||
-      static_cast<std::size_t>(row_step) * height > size)
+  if (static_cast<std::size_t>(row_step) < width * pixel || static_cast<std::size_t>(row_step) * height > size)
   {
     throw std::invalid_argument("depth image of " + std::to_string(width) + " x " + std::to_string(height) +
-                                " with step " + std::to_string(row_step) + " does not fit its " +
-                                std::to_string(size) + " bytes");
+                                " with step " + std::to_string(row_step) + " does not fit its " + std::to_string(size) +
+                                " bytes");
   }
   if (!(camera.fx > 0.0) || !(camera.fy > 0.0))
   {

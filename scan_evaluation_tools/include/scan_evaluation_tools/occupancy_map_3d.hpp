@@ -47,8 +47,8 @@ struct PinholeCamera
 /// gives NaN, which OctoMap cannot take). `encoding` is "16UC1" or "32FC1"; throws
 /// std::invalid_argument on another encoding or a buffer too small for the image.
 void depthImagePoints(const std::uint8_t* data, std::size_t size, std::uint32_t width, std::uint32_t height,
-                      std::uint32_t row_step, const std::string& encoding, bool big_endian,
-                      const PinholeCamera& camera, octomap::Pointcloud& points);
+                      std::uint32_t row_step, const std::string& encoding, bool big_endian, const PinholeCamera& camera,
+                      octomap::Pointcloud& points);
 
 /// The returns of a laser scan in its frame: beam i at angle_min + i * angle_increment, every
 /// finite range in [range_min, range_max] (REP 117: +Inf, -Inf and NaN say nothing about where

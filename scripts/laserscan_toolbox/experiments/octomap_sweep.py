@@ -75,11 +75,12 @@ def plot_cost(runs, path):
     for key, rs in series.items():
         rs = sorted(rs, key=lambda r: r["points_per_camera"])
         x = [r["points_per_camera"] / 1000.0 for r in rs]
-        style = "o-" if key.startswith("unified") else "s--"
-        a1.semilogy(x, [r["cpu_s_per_s"] for r in rs], style, label=key)
-        a2.semilogy(x, [r["map_memory_mb"] for r in rs], style, label=key + ", map")
-        a2.semilogy(x, [r["peak_memory_mb"] for r in rs], style.replace("-", ":"), alpha=0.6,
-                    label=key + ", peak of the process")
+        marker = "o" if key.startswith("unified") else "s"
+        line = a1.semilogy(x, [r["cpu_s_per_s"] for r in rs], marker + "-", label=key)[0]
+        a2.semilogy(x, [r["map_memory_mb"] for r in rs], marker + "-", color=line.get_color(),
+                    label=key + ", map")
+        a2.semilogy(x, [r["peak_memory_mb"] for r in rs], marker + ":", color=line.get_color(),
+                    alpha=0.6, label=key + ", peak of the process")
     a1.set_xlabel("depth points per camera (thousands)")
     a1.set_ylabel("CPU s per s of data")
     a2.set_xlabel("depth points per camera (thousands)")
