@@ -207,6 +207,11 @@ def compare(bag, info, scenario, results, refs, run, outdir, resolutions=RESOLUT
     return out
 
 
+def _k(n):
+    """A point count as the sweep names it (the simulator rounds to whole image rows)."""
+    return "%dk" % round(n / 1000.0)
+
+
 def check_targets(runs, targets=TARGETS):
     """(ok, text) per target of issue 20 that ``runs`` hold figures for: accuracy per point count
     against OctoMap at the finest resolution; CPU at ``cpu_ratio_from_points`` and above; map
@@ -223,22 +228,22 @@ def check_targets(runs, targets=TARGETS):
         if o is None:
             continue
         checks.append((u["obstacles_3d_found"] >= targets["min_3d_ratio"] * o["obstacles_3d_found"],
-                       "%dk points: unified 3D obstacles found %.3f >= %.1f x OctoMap's %.3f"
-                       % (n // 1000, u["obstacles_3d_found"], targets["min_3d_ratio"],
+                       "%s points: unified 3D obstacles found %.3f >= %.1f x OctoMap's %.3f"
+                       % (_k(n), u["obstacles_3d_found"], targets["min_3d_ratio"],
                           o["obstacles_3d_found"])))
         checks.append((u["map_precision"] >= o["map_precision"] - targets["max_precision_gap"],
-                       "%dk points: unified map precision %.3f >= OctoMap's %.3f - %.2f"
-                       % (n // 1000, u["map_precision"], o["map_precision"],
+                       "%s points: unified map precision %.3f >= OctoMap's %.3f - %.2f"
+                       % (_k(n), u["map_precision"], o["map_precision"],
                           targets["max_precision_gap"])))
-        if n >= targets["cpu_ratio_from_points"]:
+        if n >= 0.99 * targets["cpu_ratio_from_points"]:
             ratio = o["cpu_s_per_s"] / u["cpu_s_per_s"]
             checks.append((ratio >= targets["min_cpu_ratio"],
-                           "%dk points: OctoMap CPU / unified CPU %.1f >= %.0f"
-                           % (n // 1000, ratio, targets["min_cpu_ratio"])))
+                           "%s points: OctoMap CPU / unified CPU %.1f >= %.0f"
+                           % (_k(n), ratio, targets["min_cpu_ratio"])))
         mem = o["map_memory_mb"] / max(1e-12, u["map_memory_mb"])
         checks.append((mem >= targets["min_memory_ratio"],
-                       "%dk points: OcTree memory at %.2f m / 2D grid %.1f >= %.0f"
-                       % (n // 1000, finest, mem, targets["min_memory_ratio"])))
+                       "%s points: OcTree memory at %.2f m / 2D grid %.1f >= %.0f"
+                       % (_k(n), finest, mem, targets["min_memory_ratio"])))
     uni = sorted((r for r in runs if r["method"] == "unified"), key=lambda r: r["points_per_camera"])
     fin = sorted((r for r in octo if r["resolution_m"] == finest), key=lambda r: r["points_per_camera"])
     if len(uni) > 1 and len(fin) > 1:
@@ -246,9 +251,8 @@ def check_targets(runs, targets=TARGETS):
         checks.append((max(cpu) / min(cpu) < 1.5, "unified CPU flat across point counts: largest / "
                        "smallest %.2f < 1.5" % (max(cpu) / min(cpu))))
         growth = fin[-1]["cpu_s_per_s"] / fin[0]["cpu_s_per_s"]
-        checks.append((growth > 2.0, "OctoMap CPU grows with the points: %dk / %dk points %.1f > 2"
-                       % (fin[-1]["points_per_camera"] // 1000, fin[0]["points_per_camera"] // 1000,
-                          growth)))
+        checks.append((growth > 2.0, "OctoMap CPU grows with the points: %s / %s points %.1f > 2"
+                       % (_k(fin[-1]["points_per_camera"]), _k(fin[0]["points_per_camera"]), growth)))
     return [(bool(ok), text) for ok, text in checks]
 
 

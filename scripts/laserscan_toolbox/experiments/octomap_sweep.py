@@ -9,6 +9,7 @@ each resolution); the runs of every point count go into one JSON file
 (``octomap_cost.png``) and the maps of the point count nearest 100k (``octomap_maps.png``).
 """
 
+import json
 import os
 import shutil
 import sys
@@ -25,21 +26,55 @@ QUICK_POINTS = (100000,)
 RESOLUTIONS = (0.05, 0.10)
 
 
-def sweep(outdir, points=POINTS, resolutions=RESOLUTIONS, duration=20.0, seed=0, log=print):
+def one_point_count(work, n, resolutions, duration, seed, log, attempts=2):
+    """The evaluation with the OctoMap comparison on a simulated bag of ``n`` points per
+    camera; returns its "octomap" entry. A playback that recorded nothing (seen once on a
+    loaded shared machine: no output at all) is run again."""
+    bag = os.path.join(work, "scenario.bag")
+    os.makedirs(work, exist_ok=True)
+    log("%d points per camera: simulating %.0f s" % (n, duration))
+    simulate(bag, duration, n, seed)
+    try:
+        for attempt in range(attempts):
+            res = evaluate(bag, output=work, progress=False, plots=False, log=log,
+                           octomap=resolutions)
+            comparison = res.get("octomap", {"skipped": res.get("mapping", {}).get(
+                "skipped", "the bag has no ground truth")})
+            if "skipped" not in comparison:
+                return comparison
+            log("%d points per camera, attempt %d: OctoMap comparison skipped: %s"
+                % (n, attempt + 1, comparison["skipped"]))
+    finally:
+        os.remove(bag)
+    raise RunError("OctoMap comparison skipped: %s" % comparison["skipped"])
+
+
+def done_before(work, resolutions, duration, seed):
+    """The "octomap" entry of an earlier run in ``work`` with the same settings, or None."""
+    try:
+        with open(os.path.join(work, "results.json")) as f:
+            res = json.load(f)
+    except (OSError, ValueError):
+        return None
+    comparison = res.get("octomap", {})
+    same = ("runs" in comparison and abs(res.get("bag_duration_s", 0) - duration) < 1.0
+            and sorted(r["resolution_m"] for r in comparison["runs"] if r["method"] == "octomap")
+            == sorted(resolutions) and res.get("seed", seed) == seed)
+    return comparison if same else None
+
+
+def sweep(outdir, points=POINTS, resolutions=RESOLUTIONS, duration=20.0, seed=0, log=print,
+          resume=False):
     os.makedirs(outdir, exist_ok=True)
     t0 = time.time()
     runs, per_point = [], {}
     for n in points:
         work = os.path.join(outdir, "points_%d" % n)
-        bag = os.path.join(work, "scenario.bag")
-        os.makedirs(work, exist_ok=True)
-        log("%d points per camera: simulating %.0f s" % (n, duration))
-        simulate(bag, duration, n, seed)
-        res = evaluate(bag, output=work, progress=False, plots=False, log=log, octomap=resolutions)
-        os.remove(bag)
-        comparison = res.get("octomap", {"skipped": "the bag has no ground truth"})
-        if "skipped" in comparison:
-            raise RunError("OctoMap comparison skipped: %s" % comparison["skipped"])
+        comparison = done_before(work, resolutions, duration, seed) if resume else None
+        if comparison is None:
+            comparison = one_point_count(work, n, resolutions, duration, seed, log)
+        else:
+            log("%d points per camera: kept from %s" % (n, work))
         runs += comparison["runs"]
         per_point[n] = comparison
     nearest = min(per_point, key=lambda n: abs(n - 100000))
@@ -111,6 +146,8 @@ def main(argv=None):
     p.add_argument("--quick", action="store_true", help="%s points per camera only" %
                    "/".join(map(str, QUICK_POINTS)))
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--resume", action="store_true",
+                   help="keep the point counts that DIR already holds with the same settings")
     try:
         a = p.parse_args(argv)
     except SystemExit as e:
@@ -122,7 +159,7 @@ def main(argv=None):
         return 2
     try:
         res = sweep(a.output, points, resolutions, a.duration, a.seed,
-                    log=lambda m: print(m, file=sys.stderr))
+                    log=lambda m: print(m, file=sys.stderr), resume=a.resume)
     except (RunError, oc.OctoMapError) as e:
         print("octomap_comparison: %s" % e, file=sys.stderr)
         return 3
