@@ -3,6 +3,7 @@
 // as the simulator's ground truth, or a path file) and the mounts from tf, go into an OctoMap
 // OcTree as octomap_server builds it; writes the tree, its projected 2D map and the figures
 // (CPU per second of data, peak memory, nodes, points). See the package README.
+#include "bag_reading.hpp"
 #include "laserscan_common/message_checks.hpp"
 #include "laserscan_common/parameter_error.hpp"
 #include "scan_evaluation_tools/occupancy_map_3d.hpp"
@@ -38,6 +39,7 @@ namespace
 {
 using scan_evaluation_tools::OdometryTrack;
 using scan_evaluation_tools::Pose2D;
+using scan_evaluation_tools::yawOf;
 
 struct Options
 {
@@ -89,53 +91,40 @@ double number(const std::string& option, const std::string& v)
 Options parseOptions(int argc, char** argv)
 {
   Options o;
-  std::vector<std::string> positional;
-  for (int i = 1; i < argc; ++i)
-  {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc)
+  const auto positional =
+    scan_evaluation_tools::parseArguments(argc, argv, kUsage, [&](const std::string& a, const auto& value) {
+      if (a == "--depth-topic")
+        o.depth_topics.push_back(value());
+      else if (a == "--cloud-topic")
+        o.cloud_topics.push_back(value());
+      else if (a == "--scan-topic")
+        o.scan_topics.push_back(value());
+      else if (a == "--pose-topic")
+        o.pose_topic = value();
+      else if (a == "--poses")
+        o.poses_file = value();
+      else if (a == "--base-frame")
+        o.base_frame = value();
+      else if (a == "--resolution")
+        o.octomap.resolution = number(a, value());
+      else if (a == "--max-range")
+        o.octomap.max_range = number(a, value());
+      else if (a == "--band-min")
+        o.band_min = number(a, value());
+      else if (a == "--band-max")
+        o.band_max = number(a, value());
+      else if (a == "--min-interval")
+        o.min_interval = number(a, value());
+      else if (a == "--duration")
+        o.duration = number(a, value());
+      else if (a == "--voxels")
+        o.voxels_file = value();
+      else
       {
-        throw std::invalid_argument(a + " needs a value");
+        return false;
       }
-      return argv[++i];
-    };
-    if (a == "--depth-topic")
-      o.depth_topics.push_back(value());
-    else if (a == "--cloud-topic")
-      o.cloud_topics.push_back(value());
-    else if (a == "--scan-topic")
-      o.scan_topics.push_back(value());
-    else if (a == "--pose-topic")
-      o.pose_topic = value();
-    else if (a == "--poses")
-      o.poses_file = value();
-    else if (a == "--base-frame")
-      o.base_frame = value();
-    else if (a == "--resolution")
-      o.octomap.resolution = number(a, value());
-    else if (a == "--max-range")
-      o.octomap.max_range = number(a, value());
-    else if (a == "--band-min")
-      o.band_min = number(a, value());
-    else if (a == "--band-max")
-      o.band_max = number(a, value());
-    else if (a == "--min-interval")
-      o.min_interval = number(a, value());
-    else if (a == "--duration")
-      o.duration = number(a, value());
-    else if (a == "--voxels")
-      o.voxels_file = value();
-    else if (a == "-h" || a == "--help")
-    {
-      std::cout << kUsage;
-      std::exit(0);
-    }
-    else if (!a.empty() && a[0] == '-')
-      throw std::invalid_argument("unknown option " + a);
-    else
-      positional.push_back(a);
-  }
+      return true;
+    });
   if (positional.size() != 2)
   {
     throw std::invalid_argument("expected BAG and OUTPUT_DIR");
@@ -167,11 +156,6 @@ Options parseOptions(int argc, char** argv)
   o.bag = positional[0];
   o.output_dir = positional[1];
   return o;
-}
-
-double yawOf(const geometry_msgs::Quaternion& q)
-{
-  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
 }
 
 double processCpuSeconds()
@@ -301,8 +285,7 @@ int run(const Options& o)
   rosbag::View everything(bag);
   const double span = (everything.getEndTime() - everything.getBeginTime()).toSec();
   tf2::BufferCore tf(ros::Duration(std::max(10.0, span + 10.0)));
-  laserscan_common::TransformGate tf_gate;
-  const auto tf_max_ahead = static_cast<std::int64_t>(tf.getCacheLength().toNSec());
+  scan_evaluation_tools::BagTransforms transforms(tf);
   std::map<std::string, std::size_t> left_out;
 
   // First pass, small messages only: tf, the poses and the cameras' intrinsics by stamp, so
@@ -340,27 +323,15 @@ int run(const Options& o)
     {
       intrinsics[m.getTopic()][info->header.stamp] = { info->P[0], info->P[5], info->P[2], info->P[6] };
     }
-    else if (auto msg = m.instantiate<tf2_msgs::TFMessage>())
+    else
     {
-      const bool is_static = m.getTopic() == "/tf_static";
-      for (const auto& t : msg->transforms)
-      {
-        bool bad =
-          tf_gate.fault(t, is_static, static_cast<std::int64_t>(m.getTime().toNSec()), tf_max_ahead) != nullptr;
-        if (!bad)
-        {
-          try
-          {
-            tf.setTransform(t, "bag", is_static);
-          }
-          catch (const std::exception&)  // tf2's own, and ros::Time's range errors
-          {
-            bad = true;
-          }
-        }
-        left_out["malformed transform (the nodes' /tf rules)"] += bad ? 1 : 0;
-      }
+      transforms.add(m);
     }
+  }
+  if (transforms.malformed() > 0)
+  {
+    left_out["malformed transform (the nodes' /tf rules), the last: " + transforms.lastFault()] =
+      transforms.malformed();
   }
   std::sort(poses.begin(), poses.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (const auto& [stamp, pose] : poses)
@@ -477,10 +448,6 @@ int run(const Options& o)
     update_cpu += processCpuSeconds() - inserted;
     (scan_topics.count(m.getTopic()) ? scans_inserted : depth_inserted) += 1;
   }
-  for (auto it = left_out.begin(); it != left_out.end();)
-  {
-    it = it->second == 0 ? left_out.erase(it) : std::next(it);
-  }
   if (map.cloudsInserted() == 0)
   {
     std::cerr << "bag_to_octomap: " << o.bag << ": nothing inserted\n";
@@ -563,23 +530,5 @@ int run(const Options& o)
 
 int main(int argc, char** argv)
 {
-  Options options;
-  try
-  {
-    options = parseOptions(argc, argv);
-  }
-  catch (const std::exception& e)
-  {
-    std::cerr << "bag_to_octomap: " << e.what() << "\n" << kUsage;
-    return 2;
-  }
-  try
-  {
-    return run(options);
-  }
-  catch (const std::exception& e)  // rosbag::BagException, a path file that cannot be read
-  {
-    std::cerr << "bag_to_octomap: " << options.bag << ": " << e.what() << "\n";
-    return 1;
-  }
+  return scan_evaluation_tools::runTool<Options>("bag_to_octomap", kUsage, argc, argv, parseOptions, run);
 }
