@@ -28,7 +28,7 @@ ROBOT = (1.0, 2.0, math.pi / 2)
 CAMERA_Z, LIDAR_Z = 0.5, 0.2
 W, H, F = 80, 60, 40.0         # pixels, focal length in pixels
 CX, CY = (W - 1) / 2.0, (H - 1) / 2.0
-BOX = (2.02, -0.3, 0.3, 0.2, 0.8)      # depth, lateral (robot's left +) lo/hi, height lo/hi
+BOX = (2.02, -0.3, 0.15, 0.2, 0.8)     # depth, lateral (robot's left +) lo/hi, height lo/hi: not symmetric
 SHELF = (3.02, -0.4, 0.4, 1.40, 1.50)
 RES = 0.05
 BAND = (0.05, 1.0)
@@ -120,7 +120,8 @@ def test_occupied_voxels_are_at_the_box_shelf_and_wall_within_one_voxel(built):
     box_y = to_map(BOX[0], 0)[1]
     shelf_y = to_map(SHELF[0], 0)[1]
     wall = to_map(0.0, -2.02)  # 2 m to the robot's right
-    at_box = (np.abs(occ[:, 1] - box_y) <= RES) & (np.abs(occ[:, 0] - ROBOT[0]) <= 0.3 + RES) \
+    x_lo, x_hi = sorted((to_map(BOX[0], BOX[1])[0], to_map(BOX[0], BOX[2])[0]))
+    at_box = (np.abs(occ[:, 1] - box_y) <= RES) & (occ[:, 0] >= x_lo - RES) & (occ[:, 0] <= x_hi + RES) \
         & (occ[:, 2] >= BOX[3] - RES) & (occ[:, 2] <= BOX[4] + RES)
     at_shelf = (np.abs(occ[:, 1] - shelf_y) <= RES) & (occ[:, 2] >= SHELF[3] - RES) \
         & (occ[:, 2] <= SHELF[4] + RES)
@@ -146,7 +147,7 @@ def test_free_voxels_in_front_of_the_box(built):
 
     for depth in (0.51, 1.01, 1.51, 1.91):
         f = depth / BOX[0]  # on rays to the box face's middle and towards two of its corners
-        for lateral, z in ((0.01, CAMERA_Z + 0.01), (0.22 * f, CAMERA_Z - 0.22 * f),
+        for lateral, z in ((0.01, CAMERA_Z + 0.01), (0.12 * f, CAMERA_Z - 0.22 * f),
                            (-0.22 * f, CAMERA_Z + 0.22 * f)):
             found = leaf(depth, lateral, z)
             assert len(found) == 1 and found[0, 4] == 0, (depth, lateral, z)
@@ -225,7 +226,7 @@ def test_bad_usage_and_unusable_input(built, tmp_path, args, status):
 
 def test_poses_from_a_path_file(built, tmp_path):
     path = tmp_path / "path.txt"
-    path.write_text("# stamp x y yaw\n%f %f %f %f\n%f %f %f %f\n" % (
+    path.write_text("# stamp x y yaw\n%.17g %.17g %.17g %.17g\n%.17g %.17g %.17g %.17g\n" % (
         (T0,) + ROBOT + (T0 + 1.0,) + ROBOT))
     out = str(tmp_path / "p")
     p = subprocess.run([tool("bag_to_octomap"), built["bag"], out, "--poses", str(path),
