@@ -17,7 +17,7 @@ import time
 
 from ..evaluation import octomap_comparison as oc
 from ..evaluation.evaluate import evaluate
-from ..evaluation.report import write_json
+from ..evaluation.report import octomap_table, write_json
 from ..ros.rosrun import RunError
 from .cpu import simulate
 
@@ -91,7 +91,7 @@ def sweep(outdir, points=POINTS, resolutions=RESOLUTIONS, duration=20.0, seed=0,
                            "Scenario bags of %.0f s per point count (seed %d); this run took %.0f s (point counts kept "
                            "by --resume not counted). "
                            "Method: docs/octomap.md." % (duration, seed, res["wall_s"]), "",
-                           oc.runs_table(runs), ""]
+                           octomap_table(runs), ""]
                           + ["- %s %s" % ("met:" if t["ok"] else "**missed:**", t["check"])
                              for t in res["targets"]]
                           + ["", "![cost](octomap_cost.png)", "", "![maps](octomap_maps.png)", ""]))
