@@ -112,3 +112,23 @@ def test_voxel_band_raises_the_floor_to_a_voxel_boundary():
     assert oc.voxel_band((0.05, 1.0), 0.05)[0] == pytest.approx(0.05, abs=1e-5)
     assert oc.voxel_band((0.05, 1.0), 0.10)[0] == pytest.approx(0.10, abs=1e-5)
     assert oc.voxel_band((0.05, 1.0), 0.10)[1] == 1.0
+
+
+def test_report_section_lists_every_run_and_target():
+    from laserscan_toolbox.evaluation import report
+    u = dict(run("unified", 100000, 0.05, 0.12, 0.11, 0.61, 0.945), map_recall=0.81,
+             peak_memory_mb=25.0, slam={"map_precision": 0.979, "map_recall": 0.8,
+                                        "obstacles_3d_found": 0.513, "wall_s_per_s": 0.138})
+    o = dict(run("octomap", 100000, 0.05, 14.5, 58.7, 0.846, 0.846), map_recall=0.877,
+             peak_memory_mb=162.0)
+    res = {"runs": [u, o], "band_m": [0.05, 1.0], "cost_window_s": 2.0,
+           "accuracy_interval_s": 1.0, "figure": "octomap_maps.png",
+           "targets": [{"ok": ok, "check": c} for ok, c in oc.check_targets([u, o])]}
+    text = "\n".join(report.octomap_section(res))
+    assert "| unified | 100000 | 0.05 | 0.120 | 0.110 | 25 | 61.0 | 94.5 | 81.0 |" in text
+    assert "SLAM: precision 97.9 %, 3D 51.3 %, rbpf-slam 0.138 s wall per s" in text
+    assert "| octomap | 100000 | 0.05 | 14.500 | 58.700 | 162 | 84.6 | 84.6 | 87.7 |" in text
+    assert "**missed:** 100k points: unified 3D obstacles found" in text
+    assert "met: 100k points: OctoMap CPU / unified CPU 120.8 >= 10" in text
+    assert "(octomap/octomap_maps.png)" in text
+    assert "Not run: no depth" in "\n".join(report.octomap_section({"skipped": "no depth"}))

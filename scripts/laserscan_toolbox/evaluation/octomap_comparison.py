@@ -182,7 +182,7 @@ def compare(bag, info, scenario, results, refs, run, outdir, resolutions=RESOLUT
     if slam:
         unified["slam"] = {"map_precision": slam["map_precision"], "map_recall": slam["map_recall"],
                            "obstacles_3d_found": slam["obstacles_3d_found"],
-                           "cpu_s_per_s": slam["wall_s"] / data_s}
+                           "wall_s_per_s": slam["wall_s"] / data_s}
     runs = [unified]
     for key, o in octo.items():
         acc, cost = o["accuracy"], o["cost"]
