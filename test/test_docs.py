@@ -56,6 +56,12 @@ COMMANDS = {
     "--output /tmp/dual --rate 2": "test/test_end_to_end.py",
     "scripts/cpu_experiment --quick --output /tmp/cpu_quick": "scripts/demo",
     "scripts/cpu_experiment --duration 4 --output /tmp/cpu": CHECKED,
+    "scripts/octomap_comparison --quick --output /tmp/octomap_quick": CHECKED,  # minutes
+    "scripts/octomap_comparison --output /tmp/octomap": CHECKED,  # about 40 minutes
+    "scripts/evaluate_bag /tmp/shop.bag --output /tmp/eval --octomap 0.05 0.10": "scripts/demo",
+    "rosrun scan_evaluation_tools bag_to_octomap my.bag octomap_out --pose-topic /ground_truth/odom "
+    "--depth-topic /camera_left/depth/image_rect --scan-topic /lidar_front/scan":
+        "scan_evaluation_tools/test/test_bag_to_octomap.py",
     # --- rviz
     "roslaunch launch/rviz.launch": "test/test_rviz_screenshot.py",
     "roslaunch launch/rviz.launch fixed_frame:=base_link robot_frame:=base_link scans:=/front_scan /rear_scan "

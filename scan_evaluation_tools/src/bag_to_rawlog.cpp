@@ -1,6 +1,7 @@
 // bag_to_rawlog: the LaserScans of one topic of a ROS 1 bag, with the wheel odometry and the
 // sensor mounts from tf, as an MRPT rawlog of action/observation pairs (what rbpf-slam and
 // pf-localization read). See the package README for the options and the conventions.
+#include "bag_reading.hpp"
 #include "laserscan_common/message_checks.hpp"
 #include "scan_evaluation_tools/odometry_track.hpp"
 
@@ -35,6 +36,7 @@ namespace
 {
 using scan_evaluation_tools::OdometryTrack;
 using scan_evaluation_tools::Pose2D;
+using scan_evaluation_tools::yawOf;
 
 struct Options
 {
@@ -57,57 +59,40 @@ const char* const kUsage =
 Options parseOptions(int argc, char** argv)
 {
   Options o;
-  std::vector<std::string> positional;
-  for (int i = 1; i < argc; ++i)
-  {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc)
+  const auto positional =
+    scan_evaluation_tools::parseArguments(argc, argv, kUsage, [&](const std::string& a, const auto& value) {
+      if (a == "--scan-topic")
       {
-        throw std::invalid_argument(a + " needs a value");
+        o.scan_topic = value();
       }
-      return argv[++i];
-    };
-    if (a == "--scan-topic")
-    {
-      o.scan_topic = value();
-    }
-    else if (a == "--odom-topic")
-    {
-      o.odom_topic = value();
-    }
-    else if (a == "--base-frame")
-    {
-      o.base_frame = value();
-    }
-    else if (a == "--index")
-    {
-      o.index_file = value();
-    }
-    else if (a == "--min-interval")
-    {
-      const std::string v = value();
-      std::size_t used = 0;
-      o.min_interval = std::stod(v, &used);
-      if (used != v.size() || !(o.min_interval >= 0.0))
+      else if (a == "--odom-topic")
       {
-        throw std::invalid_argument("--min-interval must be a number of seconds >= 0, got '" + v + "'");
+        o.odom_topic = value();
       }
-    }
-    else if (a == "-h" || a == "--help")
-    {
-      std::cout << kUsage;
-      std::exit(0);
-    }
-    else if (!a.empty() && a[0] == '-')
-    {
-      throw std::invalid_argument("unknown option " + a);
-    }
-    else
-    {
-      positional.push_back(a);
-    }
-  }
+      else if (a == "--base-frame")
+      {
+        o.base_frame = value();
+      }
+      else if (a == "--index")
+      {
+        o.index_file = value();
+      }
+      else if (a == "--min-interval")
+      {
+        const std::string v = value();
+        std::size_t used = 0;
+        o.min_interval = std::stod(v, &used);
+        if (used != v.size() || !(o.min_interval >= 0.0))
+        {
+          throw std::invalid_argument("--min-interval must be a number of seconds >= 0, got '" + v + "'");
+        }
+      }
+      else
+      {
+        return false;
+      }
+      return true;
+    });
   if (positional.size() != 2)
   {
     throw std::invalid_argument("expected BAG and OUTPUT.rawlog");
@@ -119,11 +104,6 @@ Options parseOptions(int argc, char** argv)
   o.bag = positional[0];
   o.output = positional[1];
   return o;
-}
-
-double yawOf(const geometry_msgs::Quaternion& q)
-{
-  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
 }
 
 /// MRPT's scan convention: N beams spread evenly over `aperture`, symmetric around the
@@ -179,10 +159,7 @@ int run(const Options& o)
   std::vector<std::pair<double, Pose2D>> odometry;
   std::vector<sensor_msgs::LaserScan::ConstPtr> scans;
   // The nodes' rules for /tf, with the time the bag recorded a message as the clock.
-  laserscan_common::TransformGate tf_gate;
-  const auto tf_max_ahead = static_cast<std::int64_t>(tf.getCacheLength().toNSec());
-  std::size_t malformed_tf = 0;
-  std::string last_tf_fault;
+  scan_evaluation_tools::BagTransforms transforms(tf);
   rosbag::View view(bag, rosbag::TopicQuery({ "/tf_static", "/tf", o.odom_topic, o.scan_topic }));
   for (const rosbag::MessageInstance& m : view)
   {
@@ -201,35 +178,9 @@ int run(const Options& o)
         odometry.push_back({ od->header.stamp.toSec(), { p.position.x, p.position.y, yawOf(p.orientation) } });
       }
     }
-    else if (auto msg = m.instantiate<tf2_msgs::TFMessage>())
+    else
     {
-      const bool is_static = m.getTopic() == "/tf_static";
-      for (const auto& t : msg->transforms)
-      {
-        std::string fault;
-        if (const char* f = tf_gate.fault(t, is_static, static_cast<std::int64_t>(m.getTime().toNSec()), tf_max_ahead))
-        {
-          fault = f;
-        }
-        else
-        {
-          try
-          {
-            tf.setTransform(t, "bag", is_static);
-          }
-          catch (const std::exception& e)  // tf2's own, and ros::Time's range errors
-          {
-            fault = e.what();
-          }
-        }
-        if (!fault.empty())
-        {
-          ++malformed_tf;
-          last_tf_fault = "'" + t.header.frame_id + "' -> '" + t.child_frame_id + "' on " + m.getTopic() +
-                          " with stamp " + laserscan_common::stampText(t.header.stamp.sec, t.header.stamp.nsec) + ": " +
-                          fault;
-        }
-      }
+      transforms.add(m);
     }
   }
   std::sort(odometry.begin(), odometry.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
@@ -328,10 +279,10 @@ int run(const Options& o)
   {
     std::cerr << "bag_to_rawlog: " << count << " scan(s) left out: " << reason << "\n";
   }
-  if (malformed_tf > 0)
+  if (transforms.malformed() > 0)
   {
-    std::cerr << "bag_to_rawlog: warning: " << malformed_tf
-              << " malformed transform(s) ignored (the nodes' /tf rules), the last: " << last_tf_fault << "\n";
+    std::cerr << "bag_to_rawlog: warning: " << transforms.malformed()
+              << " malformed transform(s) ignored (the nodes' /tf rules), the last: " << transforms.lastFault() << "\n";
   }
   return written > 0 ? 0 : 1;
 }
@@ -340,23 +291,5 @@ int run(const Options& o)
 
 int main(int argc, char** argv)
 {
-  Options options;
-  try
-  {
-    options = parseOptions(argc, argv);
-  }
-  catch (const std::exception& e)
-  {
-    std::cerr << "bag_to_rawlog: " << e.what() << "\n" << kUsage;
-    return 2;
-  }
-  try
-  {
-    return run(options);
-  }
-  catch (const std::exception& e)  // rosbag::BagException, MRPT's exceptions
-  {
-    std::cerr << "bag_to_rawlog: " << options.bag << ": " << e.what() << "\n";
-    return 1;
-  }
+  return scan_evaluation_tools::runTool<Options>("bag_to_rawlog", kUsage, argc, argv, parseOptions, run);
 }

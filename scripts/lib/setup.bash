@@ -23,6 +23,8 @@ DEBIAN_PACKAGES=(
   # the rawlog converter's libraries) and rosbag's C++ reader
   mrpt-apps mrpt-common libmrpt-obs-dev libmrpt-ros1bridge-dev librosbag-storage-dev
   libtf2-dev libtf2-msgs-dev
+  # the 3D method the unified scan is compared with (bag_to_octomap, docs/octomap.md)
+  liboctomap-dev
   # tests and benchmarks
   librostest-dev googletest libgtest-dev libbenchmark-dev pybind11-dev python3-dev python3-pytest
   python3-pytest-xdist

@@ -46,7 +46,8 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
              band=None, tol=0.05, beam_window=1, max_scans=300, plots=True, workdir=None,
              rel_tol=0.03,
              log=print, map_topics=("/lidar_scan", "/slam_scan", "/merged_scan"), map_resolution=0.05,
-             save_scans=False, slam=False, slam_targets=None, slam_seed=0, cpu_replay=CPU_REPLAY_S):
+             save_scans=False, slam=False, slam_targets=None, slam_seed=0, cpu_replay=CPU_REPLAY_S,
+             octomap=None, octomap_interval=None):
     """Runs everything and writes results.json (+ report.md and plots when ``plots``).
 
     cpu_replay: seconds of the bag (from its start) played once more on wall time, without
@@ -54,7 +55,10 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
     under the simulated clock.
     slam: also run the SLAM and localization experiment (``evaluation.slam``) on the first
     two ``map_topics`` (lidar-only, unified); slam_targets: its targets (``slam.TARGETS``'
-    keys) joined to the thresholds."""
+    keys) joined to the thresholds; octomap: resolutions (m) at which to compare the unified
+    scan with OctoMap on the same bag (``evaluation.octomap_comparison``, results' "octomap");
+    octomap_interval: seconds between two messages of a topic in OctoMap's map (default its
+    ACCURACY_INTERVAL)."""
     t_start = time.time()
     thresholds = thresholds or {}
     log("inspecting %s" % bag)
@@ -118,6 +122,12 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
         if slam and refs is not None:
             results.update(run_slam(run, info, scenario, refs, map_topics, output, seed=slam_seed,
                                     log=log))
+        if octomap and refs is not None:
+            from . import octomap_comparison
+            results["octomap"] = octomap_comparison.compare(
+                bag, info, scenario, results, refs, run, os.path.join(output, "octomap"),
+                resolutions=octomap, log=log,
+                **({"accuracy_interval": octomap_interval} if octomap_interval else {}))
     elif output and plots:
         run["snapshot"] = scan_snapshot(bag, info, run)
         if run["snapshot"]:
@@ -286,6 +296,12 @@ def main(argv=None):
     p.add_argument("--slam-seed", type=int, default=0, help="rbpf-slam's random seed")
     for opt, _, hlp in SLAM_THRESHOLDS:
         p.add_argument("--" + opt.replace("_", "-"), type=float, help="threshold (--slam): " + hlp)
+    p.add_argument("--octomap", type=float, nargs="*", metavar="RESOLUTION",
+                   help="also compare the unified scan with OctoMap (bag_to_octomap) on the same "
+                   "bag at these resolutions, m (default 0.05): docs/octomap.md")
+    p.add_argument("--octomap-interval", type=float, metavar="S",
+                   help="with --octomap: one message per topic per S seconds in OctoMap's map "
+                   "(default 1; its CPU is measured on every message)")
     p.add_argument("--save-scans", action="store_true",
                    help="also write every recorded scan to OUTPUT/scans.npz")
     p.add_argument("--no-progress", action="store_true")
@@ -322,6 +338,11 @@ def main(argv=None):
     if a.slam and not a.output:
         print("evaluate_bag: --slam needs --output", file=sys.stderr)
         return 2
+    if a.octomap is not None and (not a.output or any(r <= 0 for r in a.octomap)
+                                  or (a.octomap_interval is not None and a.octomap_interval <= 0)):
+        print("evaluate_bag: --octomap needs --output, resolutions > 0 and an interval > 0",
+              file=sys.stderr)
+        return 2
     thresholds = {opt: getattr(a, opt) for opt, *_ in THRESHOLDS}
     slam_targets = {key: getattr(a, opt) for opt, key, _ in SLAM_THRESHOLDS
                     if getattr(a, opt) is not None}
@@ -333,7 +354,9 @@ def main(argv=None):
                        log=lambda m: print(m, file=sys.stderr), map_topics=a.map_topics,
                        save_scans=a.save_scans, rel_tol=a.relative_tolerance, slam=a.slam,
                        slam_targets=slam_targets if a.slam else None, slam_seed=a.slam_seed,
-                       cpu_replay=a.cpu_replay)
+                       cpu_replay=a.cpu_replay,
+                       octomap=(a.octomap or [0.05]) if a.octomap is not None else None,
+                       octomap_interval=a.octomap_interval)
     except BagError as e:
         print("evaluate_bag: %s" % e, file=sys.stderr)
         return 2

@@ -221,6 +221,43 @@ def slam_section(results):
     return lines
 
 
+def octomap_table(runs):
+    """Markdown table of the runs, one row per method, point count and resolution."""
+    rows = []
+    for r in runs:
+        slam = r.get("slam")
+        rows.append([r["method"], r["points_per_camera"], "%.2f" % r["resolution_m"],
+                     fmt(r["cpu_s_per_s"], 1, 3), fmt(r["map_memory_mb"], 1, 3),
+                     fmt(r["peak_memory_mb"], 1, 0), fmt(r["obstacles_3d_found"], 100),
+                     fmt(r["map_precision"], 100), fmt(r["map_recall"], 100),
+                     ("SLAM: precision %s %%, 3D %s %%, rbpf-slam %s s wall per s" % (
+                         fmt(slam["map_precision"], 100), fmt(slam["obstacles_3d_found"], 100),
+                         fmt(slam["wall_s_per_s"], 1, 3))) if slam else ""])
+    return table(["method", "depth points per camera", "resolution m", "CPU s per s of data",
+                  "map memory MB", "peak memory MB", "3D obstacles found %", "map precision %",
+                  "map recall %", "unified + SLAM"], rows)
+
+
+def octomap_section(res, link="octomap"):
+    """The report's section on the comparison (report.md of evaluate_bag and the demo)."""
+    if not res or "skipped" in res:
+        return ["## The unified scan against OctoMap", "",
+                "Not run: %s" % (res or {}).get("skipped", "no ground truth"), ""]
+    lines = ["## The unified scan against OctoMap", "",
+             "OctoMap OcTree from the bag's depth images and lidar scans at the true poses "
+             "(`bag_to_octomap`), its map projected from the band %.2f-%.2f m, judged with the "
+             "mapping experiment's figures; OctoMap's CPU is its process CPU time per second of "
+             "data with every message of the first %.0f s, its map from one message per topic "
+             "per %.1f s; the unified CPU is the pipeline manager's (under simulated time) plus "
+             "the 2D grid. Method: docs/octomap.md." % (res["band_m"][0], res["band_m"][1],
+                                                        res["cost_window_s"],
+                                                        res["accuracy_interval_s"]), "",
+             octomap_table(res["runs"]), ""]
+    lines += ["- %s %s" % ("met:" if t["ok"] else "**missed:**", t["check"]) for t in res["targets"]]
+    lines += ["", "![OctoMap against the unified scan](%s/%s)" % (link, res["figure"]), ""]
+    return lines
+
+
 def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
     plots = make_plots(results, examples, run, outdir)
     lines = ["# %s" % title, "",
@@ -272,6 +309,8 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
                          for n, v in m.items() if isinstance(v, dict) and "iou" in v]),
                   "", "![maps](maps/maps.png)", ""]
     lines += slam_section(results)
+    if "octomap" in results:
+        lines += octomap_section(results["octomap"])
     lines += ["## Inputs (bag)", "",
               "Age: bag time minus header stamp, i.e. how old a message already was when "
               "recorded; an output's latency includes its inputs' age.", "",
@@ -477,6 +516,12 @@ def summary_text(res):
                          t, fmt(v["path_rmse_m"], 1, 3), fmt(v["odometry_rmse_m"], 1, 3),
                          fmt(v["map_precision"], 100), fmt(v["map_recall"], 100),
                          fmt(v["obstacles_3d_found"], 100), fmt(loc.get("rmse_m"), 1, 3)))
+    for r in res.get("octomap", {}).get("runs", []):
+        lines.append("  %-8s %5.2f m: CPU %s s per s of data, map %s MB, peak %s MB, 3D obstacles "
+                     "found %s%%, precision %s%%" % (
+                         r["method"], r["resolution_m"], fmt(r["cpu_s_per_s"], 1, 3),
+                         fmt(r["map_memory_mb"], 1, 3), fmt(r["peak_memory_mb"], 1, 0),
+                         fmt(r["obstacles_3d_found"], 100), fmt(r["map_precision"], 100)))
     for c in res["thresholds"]:
         lines.append("  %s %s" % ("PASS" if c["ok"] else "FAIL", c["check"]))
     return "\n".join(lines)

@@ -306,6 +306,18 @@ class Launch:
         stop_process(self.proc)
 
 
+def peak_rss_mb(pid):
+    """The process's peak resident memory (VmHWM of /proc/<pid>/status), MB; None if unknown."""
+    try:
+        with open("/proc/%d/status" % pid) as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024 / 1e6
+    except OSError:
+        pass
+    return None
+
+
 class CpuMeter:
     """CPU time of processes between start() and stop(), as percent of one core; ``snapshot``
     and ``figures`` measure any other window over the same processes."""
@@ -336,6 +348,9 @@ class CpuMeter:
                 continue
             res[name] = {"cpu_percent": 100.0 * cpu_s / seconds if seconds > 0 else float("nan"),
                          "cpu_seconds": cpu_s, "rss_mb": rss / 1e6}
+            peak = peak_rss_mb(p.pid)
+            if peak is not None:
+                res[name]["peak_rss_mb"] = peak
         return res
 
     def start(self):
