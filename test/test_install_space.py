@@ -277,7 +277,7 @@ def test_installed_tools_run_from_the_install_space(installed, tmp_path):
             if b"python" in f.readline():
                 python_tools.add(os.path.basename(path))
     assert TOOLS <= python_tools, python_tools
-    programs = sorted(python_tools) + ["bag_to_rawlog", "rawlog_dump"]
+    programs = sorted(python_tools) + ["bag_to_octomap", "bag_to_rawlog", "rawlog_dump"]
     results = installed.run_all([["rosrun", "scan_evaluation_tools", p, "--help"] for p in programs])
     for program, (code, out) in zip(programs, results):
         # the C++ programs (found, linked) print their usage with a non-zero status
