@@ -13,6 +13,7 @@
 #include <type_traits>
 
 #include "depth_filter_scan_converter/cloud_view.hpp"
+#include "laserscan_common/self_filter_parameters.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -86,6 +87,14 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
              private_nh_.getNamespace().c_str(), frame_id.c_str(), input_topic_.c_str(), used.c_str());
   });
   tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, private_nh_.getNamespace());
+  std::vector<std::string> self_filter_warnings;
+  self_filter_ =
+    laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(private_nh_), nh_, self_filter_warnings);
+  for (const std::string& warning : self_filter_warnings)
+    ROS_WARN("[%s] self filter: %s", private_nh_.getNamespace().c_str(), warning.c_str());
+  if (!self_filter_.empty())
+    ROS_INFO("[%s] self filter: %zu shapes on %zu frames", private_nh_.getNamespace().c_str(),
+             self_filter_.shapes().size(), self_filter_.frames().size());
 
   // Messages wait in the tf filter (never in a callback) until their transform is there. The
   // filter delivers through nh's callback queue, so processing runs in the node's own threads.
@@ -383,6 +392,10 @@ void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* byt
                                     laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec) +
                                     " is not finite (a chain of transforms sums to infinity)");
     camera_to_reference = tf2::transformToEigen(transform);
+    // The robot's parts where they are at the cloud's stamp: one lookup per frame.
+    if (!self_filter_.empty())
+      laserscan_common::setFramePosesAt(tf_buffer_, params_.transform.reference_frame, cloud->header.stamp,
+                                        params_.transform.transform_tolerance, self_filter_);
   }
   catch (const std::exception& e)  // tf2 also throws std::runtime_error on stamps past 32 bits
   {
@@ -404,7 +417,8 @@ void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* byt
   scan->range_min = static_cast<float>(params_.scan.range_min);
   scan->range_max = static_cast<float>(params_.scan.range_max);
   const bool want_cloud = params_.publish_filtered_cloud && cloud_pub_ && cloud_pub_.getNumSubscribers() > 0;
-  projector_.project(view, camera_to_reference, scan->ranges, &scan->intensities, want_cloud ? &kept_points_ : nullptr);
+  projector_.project(view, camera_to_reference, scan->ranges, &scan->intensities, want_cloud ? &kept_points_ : nullptr,
+                     &self_filter_);
   scan_pub_.publish(scan);  // not touched after this: shared zero-copy with nodelets in the manager
 
   if (want_cloud)

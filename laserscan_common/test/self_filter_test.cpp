@@ -169,7 +169,7 @@ TEST(SelfFilterShapes, ChunkTestAgreesWithThePointTestAndSkipsInactivePoints)
   std::uniform_real_distribution<float> u(-0.2f, 1.4f);
   const std::size_t n = 4096;
   std::vector<float> xs(n), ys(n), zs(n);
-  std::vector<std::uint8_t> active(n), inside(n, 0);
+  std::vector<std::int32_t> active(n), inside(n, 0);
   std::size_t expected_inside = 0;
   for (std::size_t i = 0; i < n; ++i)
   {

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -118,12 +119,15 @@ public:
   }
 
   /// For n points (structure of arrays): inside[i] = 1 if point i is inside a padded shape,
-  /// else left as it is; points with active[i] == 0 are not tested. Returns whether any point was
-  /// inside. Inline and branch-free per shape, so a caller's vectorized (target_clones) loop
-  /// inlines it with its own instruction set; each shape is skipped when no point of the run
-  /// lies in its bounding box.
-  inline bool markInside(std::size_t n, const float* xs, const float* ys, const float* zs, const std::uint8_t* active,
-                         std::uint8_t* inside) const;
+  /// else left as it is; points with active[i] == 0 are not tested (active[i] is 0 or 1). Returns whether any point was
+  /// inside. Inline, so that a caller's vectorized (target_clones) function inlines it with its
+  /// own instruction set; per block of kMarkBlock points, a shape is tested only when one of the
+  /// block's active points lies in its bounding box.
+  inline bool markInside(std::size_t n, const float* xs, const float* ys, const float* zs, const std::int32_t* active,
+                         std::int32_t* inside) const;
+
+  /// Points per block of markInside.
+  static constexpr std::size_t kMarkBlock = 32;
 
 private:
   std::vector<RobotShape> shapes_;
@@ -134,27 +138,59 @@ private:
 };
 
 __attribute__((always_inline)) inline bool SelfFilter::markInside(std::size_t n, const float* xs, const float* ys,
-                                                                  const float* zs, const std::uint8_t* active,
-                                                                  std::uint8_t* inside) const
+                                                                  const float* zs, const std::int32_t* active,
+                                                                  std::int32_t* inside) const
 {
-  bool any = false;
-  for (const PosedShape& s : posed_)
+  // Points come in runs that lie close together (a row of a depth image): per block of
+  // kMarkBlock points, a shape is tested only when one of the block's active points lies in its
+  // bounding box, so that a point near one link is tested against that link, not all of them.
+  // Every loop is branch-free and vectorizes (integer OR reductions only).
+  std::int32_t any = 0;
+  for (std::size_t b0 = 0; b0 < n; b0 += kMarkBlock)
   {
-    int in_box = 0;
-    for (std::size_t i = 0; i < n; ++i)
-      in_box |= static_cast<int>(active[i] & s.bounds.contains(xs[i], ys[i], zs[i]));
-    if (!in_box)
+    const std::size_t m = n - b0 < kMarkBlock ? n - b0 : kMarkBlock;
+    const float* bx = xs + b0;
+    const float* by = ys + b0;
+    const float* bz = zs + b0;
+    const std::int32_t* ba = active + b0;
+    std::int32_t* bi = inside + b0;
+    std::int32_t block_active = 0;
+    for (std::size_t i = 0; i < m; ++i)
+      block_active |= ba[i];
+    if (!block_active)
       continue;
-    int hit = 0;
-    for (std::size_t i = 0; i < n; ++i)
+    for (const PosedShape& s : posed_)
     {
-      const int h = active[i] & insidePosed(s, xs[i], ys[i], zs[i]);
-      inside[i] |= static_cast<std::uint8_t>(h);
-      hit |= h;
+      // Locals, so that the compiler keeps them in registers across the vectorized loops.
+      const float lx = s.bounds.lo.x(), ly = s.bounds.lo.y(), lz = s.bounds.lo.z();
+      const float hx = s.bounds.hi.x(), hy = s.bounds.hi.y(), hz = s.bounds.hi.z();
+      std::int32_t in_box = 0;
+      for (std::size_t i = 0; i < m; ++i)
+      {
+        const float x = bx[i], y = by[i], z = bz[i];
+        in_box |= ba[i] & (x >= lx) & (x <= hx) & (y >= ly) & (y <= hy) & (z >= lz) & (z <= hz);
+      }
+      if (!in_box)
+        continue;
+      const float r0 = s.r[0], r1 = s.r[1], r2 = s.r[2], r3 = s.r[3], r4 = s.r[4], r5 = s.r[5];
+      const float r6 = s.r[6], r7 = s.r[7], r8 = s.r[8], t0 = s.t[0], t1 = s.t[1], t2 = s.t[2];
+      const float h0 = s.h[0], h1 = s.h[1], h2 = s.h[2];
+      const float radius2 = s.radius2, wr = s.radial_weight, wa = s.axial_weight;
+      for (std::size_t i = 0; i < m; ++i)
+      {
+        const float x = bx[i], y = by[i], z = bz[i];
+        const float qx = r0 * x + r1 * y + r2 * z + t0;
+        const float qy = r3 * x + r4 * y + r5 * z + t1;
+        const float qz = r6 * x + r7 * y + r8 * z + t2;
+        const float round = wr * (qx * qx + qy * qy) + wa * (qz * qz);
+        const std::int32_t h =
+          ba[i] & (std::abs(qx) <= h0) & (std::abs(qy) <= h1) & (std::abs(qz) <= h2) & (round <= radius2);
+        bi[i] |= h;
+        any |= h;
+      }
     }
-    any = any || hit;
   }
-  return any;
+  return any != 0;
 }
 
 }  // namespace laserscan_common
