@@ -137,6 +137,51 @@ private:
   Bounds bounds_;
 };
 
+/// markInside on one block of m points (m = kMarkBlock known at compile time for full blocks:
+/// the loops then have no remainder).
+__attribute__((always_inline)) inline std::int32_t markBlock(const std::vector<PosedShape>& shapes, std::size_t m,
+                                                             const float* bx, const float* by, const float* bz,
+                                                             const std::int32_t* ba, std::int32_t* bi)
+{
+  std::int32_t block_active = 0;
+  for (std::size_t i = 0; i < m; ++i)
+    block_active |= ba[i];
+  if (!block_active)
+    return 0;
+  std::int32_t any = 0;
+  for (const PosedShape& s : shapes)
+  {
+    // Locals, so that the compiler keeps them in registers across the vectorized loops.
+    const float lx = s.bounds.lo.x(), ly = s.bounds.lo.y(), lz = s.bounds.lo.z();
+    const float hx = s.bounds.hi.x(), hy = s.bounds.hi.y(), hz = s.bounds.hi.z();
+    std::int32_t in_box = 0;
+    for (std::size_t i = 0; i < m; ++i)
+    {
+      const float x = bx[i], y = by[i], z = bz[i];
+      in_box |= ba[i] & (x >= lx) & (x <= hx) & (y >= ly) & (y <= hy) & (z >= lz) & (z <= hz);
+    }
+    if (!in_box)
+      continue;
+    const float r0 = s.r[0], r1 = s.r[1], r2 = s.r[2], r3 = s.r[3], r4 = s.r[4], r5 = s.r[5];
+    const float r6 = s.r[6], r7 = s.r[7], r8 = s.r[8], t0 = s.t[0], t1 = s.t[1], t2 = s.t[2];
+    const float h0 = s.h[0], h1 = s.h[1], h2 = s.h[2];
+    const float radius2 = s.radius2, wr = s.radial_weight, wa = s.axial_weight;
+    for (std::size_t i = 0; i < m; ++i)
+    {
+      const float x = bx[i], y = by[i], z = bz[i];
+      const float qx = r0 * x + r1 * y + r2 * z + t0;
+      const float qy = r3 * x + r4 * y + r5 * z + t1;
+      const float qz = r6 * x + r7 * y + r8 * z + t2;
+      const float round = wr * (qx * qx + qy * qy) + wa * (qz * qz);
+      const std::int32_t h =
+        ba[i] & (std::abs(qx) <= h0) & (std::abs(qy) <= h1) & (std::abs(qz) <= h2) & (round <= radius2);
+      bi[i] |= h;
+      any |= h;
+    }
+  }
+  return any;
+}
+
 __attribute__((always_inline)) inline bool SelfFilter::markInside(std::size_t n, const float* xs, const float* ys,
                                                                   const float* zs, const std::int32_t* active,
                                                                   std::int32_t* inside) const
@@ -146,50 +191,11 @@ __attribute__((always_inline)) inline bool SelfFilter::markInside(std::size_t n,
   // bounding box, so that a point near one link is tested against that link, not all of them.
   // Every loop is branch-free and vectorizes (integer OR reductions only).
   std::int32_t any = 0;
-  for (std::size_t b0 = 0; b0 < n; b0 += kMarkBlock)
-  {
-    const std::size_t m = n - b0 < kMarkBlock ? n - b0 : kMarkBlock;
-    const float* bx = xs + b0;
-    const float* by = ys + b0;
-    const float* bz = zs + b0;
-    const std::int32_t* ba = active + b0;
-    std::int32_t* bi = inside + b0;
-    std::int32_t block_active = 0;
-    for (std::size_t i = 0; i < m; ++i)
-      block_active |= ba[i];
-    if (!block_active)
-      continue;
-    for (const PosedShape& s : posed_)
-    {
-      // Locals, so that the compiler keeps them in registers across the vectorized loops.
-      const float lx = s.bounds.lo.x(), ly = s.bounds.lo.y(), lz = s.bounds.lo.z();
-      const float hx = s.bounds.hi.x(), hy = s.bounds.hi.y(), hz = s.bounds.hi.z();
-      std::int32_t in_box = 0;
-      for (std::size_t i = 0; i < m; ++i)
-      {
-        const float x = bx[i], y = by[i], z = bz[i];
-        in_box |= ba[i] & (x >= lx) & (x <= hx) & (y >= ly) & (y <= hy) & (z >= lz) & (z <= hz);
-      }
-      if (!in_box)
-        continue;
-      const float r0 = s.r[0], r1 = s.r[1], r2 = s.r[2], r3 = s.r[3], r4 = s.r[4], r5 = s.r[5];
-      const float r6 = s.r[6], r7 = s.r[7], r8 = s.r[8], t0 = s.t[0], t1 = s.t[1], t2 = s.t[2];
-      const float h0 = s.h[0], h1 = s.h[1], h2 = s.h[2];
-      const float radius2 = s.radius2, wr = s.radial_weight, wa = s.axial_weight;
-      for (std::size_t i = 0; i < m; ++i)
-      {
-        const float x = bx[i], y = by[i], z = bz[i];
-        const float qx = r0 * x + r1 * y + r2 * z + t0;
-        const float qy = r3 * x + r4 * y + r5 * z + t1;
-        const float qz = r6 * x + r7 * y + r8 * z + t2;
-        const float round = wr * (qx * qx + qy * qy) + wa * (qz * qz);
-        const std::int32_t h =
-          ba[i] & (std::abs(qx) <= h0) & (std::abs(qy) <= h1) & (std::abs(qz) <= h2) & (round <= radius2);
-        bi[i] |= h;
-        any |= h;
-      }
-    }
-  }
+  std::size_t b0 = 0;
+  for (; b0 + kMarkBlock <= n; b0 += kMarkBlock)
+    any |= markBlock(posed_, kMarkBlock, xs + b0, ys + b0, zs + b0, active + b0, inside + b0);
+  if (b0 < n)
+    any |= markBlock(posed_, n - b0, xs + b0, ys + b0, zs + b0, active + b0, inside + b0);
   return any != 0;
 }
 
