@@ -92,6 +92,9 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
     laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(private_nh_), nh_, self_filter_warnings);
   for (const std::string& warning : self_filter_warnings)
     ROS_WARN("[%s] self filter: %s", private_nh_.getNamespace().c_str(), warning.c_str());
+  // A message waits for its own transform and for those of the robot's parts at its stamp.
+  tf_targets_ = { params_.transform.reference_frame };
+  tf_targets_.insert(tf_targets_.end(), self_filter_.frames().begin(), self_filter_.frames().end());
   if (!self_filter_.empty())
     ROS_INFO("[%s] self filter: %zu shapes on %zu frames", private_nh_.getNamespace().c_str(),
              self_filter_.shapes().size(), self_filter_.frames().size());
@@ -103,6 +106,7 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
   {
     cloud_filter_ =
       std::make_unique<tf2_ros::MessageFilter<Cloud>>(tf_buffer_, params_.transform.reference_frame, queue, nh_);
+    cloud_filter_->setTargetFrames(tf_targets_);
     cloud_filter_->registerCallback([this](const Cloud::ConstPtr& cloud) { process(cloud); });
     cloud_filter_->registerFailureCallback(
       [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
@@ -113,6 +117,7 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
   {
     image_filter_ =
       std::make_unique<tf2_ros::MessageFilter<Image>>(tf_buffer_, params_.transform.reference_frame, queue, nh_);
+    image_filter_->setTargetFrames(tf_targets_);
     image_filter_->registerCallback([this](const Image::ConstPtr& image) { process(image); });
     image_filter_->registerFailureCallback(
       [this](const Image::ConstPtr& image, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
@@ -208,10 +213,11 @@ DepthFilterScanConverter::Admission DepthFilterScanConverter::admit(const std_ms
     return Admission::Dropped;
   }
   const tf2::BufferCore& transforms = tf_buffer_;
-  return transforms.canTransform(params_.transform.reference_frame, laserscan_common::tf2FrameId(header.frame_id),
-                                 header.stamp)
-           ? Admission::Ready
-           : Admission::Wait;
+  const std::string frame = laserscan_common::tf2FrameId(header.frame_id);
+  for (const std::string& target : tf_targets_)
+    if (!transforms.canTransform(target, frame, header.stamp))
+      return Admission::Wait;
+  return Admission::Ready;
 }
 
 bool DepthFilterScanConverter::convertInPlace(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size)
@@ -395,7 +401,7 @@ void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* byt
     // The robot's parts where they are at the cloud's stamp: one lookup per frame.
     if (!self_filter_.empty())
       laserscan_common::setFramePosesAt(tf_buffer_, params_.transform.reference_frame, cloud->header.stamp,
-                                        params_.transform.transform_tolerance, self_filter_);
+                                        self_filter_);
   }
   catch (const std::exception& e)  // tf2 also throws std::runtime_error on stamps past 32 bits
   {

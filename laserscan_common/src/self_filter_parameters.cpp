@@ -177,27 +177,13 @@ SelfFilter makeSelfFilter(const SelfFilterParams& params, const ros::NodeHandle&
   return SelfFilter(std::move(shapes), "self_filter");
 }
 
-void setFramePosesAt(const tf2::BufferCore& buffer, const std::string& target, const ros::Time& stamp, double tolerance,
+void setFramePosesAt(const tf2::BufferCore& buffer, const std::string& target, const ros::Time& stamp,
                      SelfFilter& filter)
 {
   std::vector<Eigen::Isometry3d> poses;
   for (const std::string& frame : filter.frames())
   {
-    geometry_msgs::TransformStamped t;
-    try
-    {
-      t = buffer.lookupTransform(target, frame, stamp);
-    }
-    catch (const tf2::ExtrapolationException&)
-    {
-      t = buffer.lookupTransform(target, frame, ros::Time(0));
-      if (t.header.stamp > stamp)
-        throw;  // the stamp is older than the buffer: no fallback
-      if ((stamp - t.header.stamp).toSec() > tolerance)
-        throw tf2::ExtrapolationException("self filter: the latest transform '" + frame + "' -> '" + target + "' is " +
-                                          std::to_string((stamp - t.header.stamp).toSec()) +
-                                          " s older than the message (more than transform_tolerance)");
-    }
+    const geometry_msgs::TransformStamped t = buffer.lookupTransform(target, frame, stamp);
     if (!transformIsFinite(t.transform))
       throw tf2::TransformException("self filter: the transform '" + frame + "' -> '" + target + "' is not finite");
     const auto& q = t.transform.rotation;

@@ -160,6 +160,8 @@ private:
   Projector projector_;
   /// The robot's own parts (the `self_filter` block; empty: off), posed at each cloud's stamp.
   laserscan_common::SelfFilter self_filter_;
+  /// Frames a message waits for: reference_frame, then the self filter's.
+  std::vector<std::string> tf_targets_;
   std::vector<float> kept_points_;
   std::deque<Arrival> arrivals_;  // of the messages waiting in the tf filter
 

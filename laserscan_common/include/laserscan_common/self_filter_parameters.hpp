@@ -38,11 +38,10 @@ SelfFilterParams readSelfFilterParams(const ros::NodeHandle& private_nh, const s
 SelfFilter makeSelfFilter(const SelfFilterParams& params, const ros::NodeHandle& nh,
                           std::vector<std::string>& warnings);
 
-/// Sets the poses of the filter's frames in `target` at `stamp` (one lookup per frame). When a
-/// frame's transform does not reach `stamp` yet (joint states published slower than the sensor),
-/// its latest transform is used if it is at most `tolerance` s older. Throws
-/// tf2::TransformException naming the frame otherwise.
-void setFramePosesAt(const tf2::BufferCore& buffer, const std::string& target, const ros::Time& stamp, double tolerance,
+/// Sets the poses of the filter's frames in `target` at `stamp` (one lookup per frame). Throws
+/// tf2::TransformException (naming the frames) when one is not there: a node waits for them as
+/// for its sensor's own transform (its tf message filter has the shape frames as targets too).
+void setFramePosesAt(const tf2::BufferCore& buffer, const std::string& target, const ros::Time& stamp,
                      SelfFilter& filter);
 
 }  // namespace laserscan_common
