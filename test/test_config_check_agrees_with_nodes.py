@@ -17,8 +17,10 @@ from laserscan_toolbox import config_check as cc  # noqa: E402
 import depth_filter_scan_converter_core as converter_core  # noqa: E402  (built modules: source devel/setup.bash)
 import multi_laserscan_merger_core as merger_core  # noqa: E402
 
-# Keys the ROS glue reads outside the core's parameter struct (queue depth of the tf filter).
-CONVERTER_ROS_ONLY = {"queue_size"}
+# Keys the ROS glue reads outside the core's parameter struct (queue depth of the tf filter; the
+# self_filter block, read by laserscan_common's glue: its verdicts are compared with the node's
+# in depth_filter_scan_converter/test/test_startup_and_tuning.py).
+CONVERTER_ROS_ONLY = {"queue_size", "self_filter"}
 
 
 def same(a, b):
