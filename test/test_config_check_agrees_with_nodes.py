@@ -86,6 +86,7 @@ MERGER_SOURCE_CHANGES = [
     ("timeout", 0.0), ("timeout", -1.0), ("angle_min", 2.5), ("angle_min", 4.0),
     ("angle_max", -4.0), ("angle_max", 3.1416), ("angle_max", 3.14159), ("range_min", -0.5), ("range_min", 2.0), ("range_max", 0.0),
     ("topic", ""), ("name", ""), ("too_close_is_obstacle", False), ("footprint_filter", False),
+    ("self_filter", False),
     ("drop_explained_within", 0.15), ("drop_explained_within", 0.0), ("drop_explained_within", -0.1),
     ("drop_explained_within", math.inf), ("drop_explained_within", math.nan),
 ]

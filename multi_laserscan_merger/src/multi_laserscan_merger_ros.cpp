@@ -9,6 +9,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include "laserscan_common/diagnostics_timer.hpp"
+#include "laserscan_common/self_filter_parameters.hpp"
 
 namespace multi_laserscan_merger
 {
@@ -71,6 +72,7 @@ SourceParams readSource(XmlRpc::XmlRpcValue& item, const std::string& prefix)
                                                "deskew",
                                                "too_close_is_obstacle",
                                                "footprint_filter",
+                                               "self_filter",
                                                "drop_explained_within" };
   for (auto& kv : item)
     if (known.count(kv.first) == 0)
@@ -107,6 +109,7 @@ SourceParams readSource(XmlRpc::XmlRpcValue& item, const std::string& prefix)
   flag("deskew", s.deskew);
   flag("too_close_is_obstacle", s.too_close_is_obstacle);
   flag("footprint_filter", s.footprint_filter);
+  flag("self_filter", s.self_filter);
   return s;
 }
 
@@ -169,9 +172,10 @@ MergerParams loadParams(const ros::NodeHandle& pnh)
 
   XmlRpc::XmlRpcValue list;
   if (!pnh.getParam("sources", list))
-    throw ParameterError("sources",
-                         "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
-                         "range_max, deskew, too_close_is_obstacle, footprint_filter, drop_explained_within}");
+    throw ParameterError(
+      "sources",
+      "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
+      "range_max, deskew, too_close_is_obstacle, footprint_filter, self_filter, drop_explained_within}");
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw ParameterError("sources", "must be a list of dictionaries");
   for (int i = 0; i < list.size(); ++i)
@@ -194,6 +198,17 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
                              "', the merger's own output topic (remap the output or the source)");
   odom_ = OdometryBuffer(static_cast<std::size_t>(params_.odom_queue_size));
   sources_.resize(params_.sources.size());
+  std::vector<std::string> self_filter_warnings;
+  const laserscan_common::SelfFilter self_filter =
+    laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(private_nh_), nh_, self_filter_warnings);
+  for (const std::string& warning : self_filter_warnings)
+    ROS_WARN("%s: self filter: %s", name_.c_str(), warning.c_str());
+  for (std::size_t i = 0; i < sources_.size(); ++i)
+    if (params_.sources[i].self_filter)
+      sources_[i].self_filter = self_filter;
+  if (!self_filter.empty())
+    ROS_INFO("%s: self filter: %zu shapes on %zu frames", name_.c_str(), self_filter.shapes().size(),
+             self_filter.frames().size());
   for (std::size_t i = 0; i < sources_.size(); ++i)
     sources_[i].frame_id =
       laserscan_common::FrameIdNormaliser([this, i](const std::string& frame_id, const std::string& used) {
@@ -296,6 +311,38 @@ bool MultiLaserScanMergerRos::tryTransform(const std::string& frame, const ros::
   return true;
 }
 
+bool MultiLaserScanMergerRos::poseSelfFilter(std::size_t i, const sensor_msgs::LaserScan& msg, const std::string& frame,
+                                             std::string& error)
+{
+  SourceState& s = sources_[i];
+  // A scan older than the kept one is not kept (accept): the poses stay the kept scan's.
+  if (s.self_filter.empty() || (s.scan && msg.header.stamp < s.scan->header.stamp))
+    return true;
+  // The arm moves during a scan; one pose per scan (not per beam: a few shapes per scan, and
+  // between a lidar's 0.1 s scans the arm moves a few cm): at the middle beam's time when the
+  // source deskews, which halves the largest error, at the stamp otherwise (the time the
+  // merger takes the whole scan for).
+  ros::Time t = msg.header.stamp;
+  if (params_.sources[i].deskew && msg.ranges.size() > 1)
+    t += ros::Duration(0.5 * static_cast<double>(msg.ranges.size() - 1) * msg.time_increment);
+  try
+  {
+    for (const std::string& shape_frame : s.self_filter.frames())
+      if (!tf_buffer_.canTransform(frame, shape_frame, t, &error))
+      {
+        error = "self filter: no transform '" + shape_frame + "' -> '" + frame + "': " + error;
+        return false;
+      }
+    laserscan_common::setFramePosesAt(tf_buffer_, frame, t, s.self_filter);
+  }
+  catch (const std::exception& e)
+  {
+    error = e.what();
+    return false;
+  }
+  return true;
+}
+
 void MultiLaserScanMergerRos::drop(std::size_t i, std::string why)
 {
   ++sources_[i].dropped;
@@ -355,7 +402,7 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
     clearAll("source '" + sp.name + "' stamps jumped backwards", "stamps of source " + sp.name + " jumped backwards");
   std::string error;
   Eigen::Isometry3d output_T_sensor;
-  if (tryTransform(frame, msg->header.stamp, output_T_sensor, error))
+  if (tryTransform(frame, msg->header.stamp, output_T_sensor, error) && poseSelfFilter(i, *msg, frame, error))
   {
     if (s.pending)
     {
@@ -395,7 +442,8 @@ void MultiLaserScanMergerRos::retryPending()
     const sensor_msgs::LaserScan::ConstPtr msg = s.pending;
     std::string error;
     Eigen::Isometry3d output_T_sensor;
-    if (tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor, error))
+    if (tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor, error) &&
+        poseSelfFilter(i, *msg, s.pending_frame, error))
     {
       s.pending.reset();
       accept(i, msg, output_T_sensor);
@@ -567,6 +615,7 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
     {
       inputs_[i].scan = viewOf(*sources_[i].scan);
       inputs_[i].output_T_sensor = sources_[i].output_T_sensor;
+      inputs_[i].self_filter = &sources_[i].self_filter;
     }
   }
   Eigen::Isometry3d output_T_robot;

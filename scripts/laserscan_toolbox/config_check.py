@@ -88,6 +88,7 @@ MERGER = {
     # the merger reads it as a number that must be whole (100 and 100.0 both work)
     "odom_queue_size": Key("whole", 100, lo=2, doc="odometry poses kept (interpolation needs two)"),
     "publish_rate": Key("float", 0.0, "Hz", lo=0.0),
+    "self_filter": Key("self_filter", {}, doc="the robot's own parts: returns inside are dropped"),
     "sources": None,  # checked by check_sources
 }
 MERGER_PAIRS = [("angle_min", "angle_max"), ("range_min", "range_max")]
@@ -103,6 +104,7 @@ SOURCE = {
     "deskew": Key("bool", False),
     "too_close_is_obstacle": Key("bool", True, doc="-Inf is an obstacle at the sensor's range_min"),
     "footprint_filter": Key("bool", True, doc="false: the merger's footprint does not apply"),
+    "self_filter": Key("bool", True, doc="false: the merger's self_filter block does not apply"),
     "drop_explained_within": Key("float", 0.0, "m", lo=0.0, finite=True,
                                  doc="> 0: a scan with a return this close to another source's is dropped "
                                      "(sonar arcs); 0 = off"),

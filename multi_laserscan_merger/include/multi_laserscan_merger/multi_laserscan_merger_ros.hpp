@@ -44,6 +44,8 @@ private:
   {
     sensor_msgs::LaserScan::ConstPtr scan;  ///< latest accepted scan
     Eigen::Isometry3d output_T_sensor = Eigen::Isometry3d::Identity();
+    /// The robot's parts in the sensor's frame for the latest scan (empty: no self filter).
+    laserscan_common::SelfFilter self_filter;
     sensor_msgs::LaserScan::ConstPtr pending;  ///< waiting for its transform
     std::string pending_frame;                 ///< its frame id as tf2 wants it
     ros::WallTime pending_since;
@@ -74,6 +76,11 @@ private:
   /// output_T_sensor at stamp; false (with the reason in error) when tf2 has none or it is not finite.
   bool tryTransform(const std::string& frame, const ros::Time& stamp, Eigen::Isometry3d& output_T_sensor,
                     std::string& error);
+  /// Poses the source's self filter (if any) in the scan's frame: at the scan's stamp, or at its
+  /// middle beam's time when the source deskews. false (with the reason) while a shape frame's
+  /// transform is not there: the scan waits for it as for its own.
+  bool poseSelfFilter(std::size_t source, const sensor_msgs::LaserScan& msg, const std::string& frame,
+                      std::string& error);
   /// Keeps msg with the mount it was transformed with, unless an older scan than the one kept.
   void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg,
               const Eigen::Isometry3d& output_T_sensor);
