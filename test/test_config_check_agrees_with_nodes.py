@@ -17,8 +17,10 @@ from laserscan_toolbox import config_check as cc  # noqa: E402
 import depth_filter_scan_converter_core as converter_core  # noqa: E402  (built modules: source devel/setup.bash)
 import multi_laserscan_merger_core as merger_core  # noqa: E402
 
-# Keys the ROS glue reads outside the core's parameter struct (queue depth of the tf filter).
-CONVERTER_ROS_ONLY = {"queue_size"}
+# Keys the ROS glue reads outside the core's parameter struct (queue depth of the tf filter; the
+# self_filter block, read by laserscan_common's glue: its verdicts are compared with the node's
+# in depth_filter_scan_converter/test/test_startup_and_tuning.py).
+CONVERTER_ROS_ONLY = {"queue_size", "self_filter"}
 
 
 def same(a, b):
@@ -84,6 +86,7 @@ MERGER_SOURCE_CHANGES = [
     ("timeout", 0.0), ("timeout", -1.0), ("angle_min", 2.5), ("angle_min", 4.0),
     ("angle_max", -4.0), ("angle_max", 3.1416), ("angle_max", 3.14159), ("range_min", -0.5), ("range_min", 2.0), ("range_max", 0.0),
     ("topic", ""), ("name", ""), ("too_close_is_obstacle", False), ("footprint_filter", False),
+    ("self_filter", False),
     ("drop_explained_within", 0.15), ("drop_explained_within", 0.0), ("drop_explained_within", -0.1),
     ("drop_explained_within", math.inf), ("drop_explained_within", math.nan),
 ]

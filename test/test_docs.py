@@ -600,7 +600,7 @@ def parse_default(cell):
         return None
     text = re.sub(r"\s*\(.*\)$", "", cell.replace("`", "")).strip()
     words = {"pi": math.pi, "-pi": -math.pi, "pi/720": math.pi / 720, "+inf": math.inf, ".inf": math.inf,
-             "true": True, "false": False, '""': "", "[]": []}
+             "true": True, "false": False, '""': "", "[]": [], "absent": {}}
     if text in words:
         return words[text]
     try:
@@ -609,7 +609,8 @@ def parse_default(cell):
         return text
 
 
-TYPES = {"float": "double", "int": "int", "whole": "int", "bool": "bool", "str": "string", "polygon": "list of `[x, y]`"}
+TYPES = {"float": "double", "int": "int", "whole": "int", "bool": "bool", "str": "string", "polygon": "list of `[x, y]`",
+         "self_filter": "dict"}
 
 
 @pytest.mark.parametrize("readme, section, column, nth, schema", [

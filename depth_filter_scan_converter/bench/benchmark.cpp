@@ -14,6 +14,7 @@
 #include "../test/depth_image_fixtures.hpp"
 #include "../test/pcl_cloud.hpp"
 #include "depth_filter_scan_converter/projector.hpp"
+#include "laserscan_common/self_filter.hpp"
 
 namespace dfsc = depth_filter_scan_converter;
 using namespace dfsc::test;  // NOLINT: fixtures of the benchmark
@@ -46,6 +47,71 @@ const Input& synthetic()
     for (const auto& p : pts)
       in.valid_points += std::isfinite(p.x()) ? 1 : 0;
     return in;
+  }();
+  return input;
+}
+
+// The synthetic room with the robot's 6-link arm reaching into the camera's view (a fifth of
+// the cloud's points lie on its padded shapes), and the shapes posed for the self filter:
+// boxes, a cylinder and a sphere, as a URDF's collision elements would give.
+struct ArmInput
+{
+  Input in;
+  laserscan_common::SelfFilter filter;
+  std::size_t arm_points = 0;  // valid points inside the padded shapes
+};
+
+const ArmInput& syntheticWithArm()
+{
+  static const ArmInput input = [] {
+    ArmInput a;
+    Scene scene;
+    scene.wall_x = 3.5;
+    scene.boxes.push_back({ Vector3d(1.2, -0.9, 0.70), Vector3d(2.0, 0.1, 0.75) });
+    scene.boxes.push_back({ Vector3d(2.6, 0.4, 0.0), Vector3d(3.0, 1.4, 1.8) });
+    scene.boxes.push_back({ Vector3d(1.0, 0.5, 0.0), Vector3d(1.45, 0.95, 0.45) });
+    const std::vector<Box> links = {
+      { Vector3d(0.6, 0.2, 0.0), Vector3d(0.75, 0.35, 0.5) },      // shoulder
+      { Vector3d(0.6, 0.2, 0.5), Vector3d(1.1, 0.3, 0.6) },        // upper arm
+      { Vector3d(1.0, -0.1, 0.45), Vector3d(1.1, 0.3, 0.55) },     // forearm
+      { Vector3d(0.95, -0.2, 0.35), Vector3d(1.1, -0.1, 0.55) },   // wrist 1
+      { Vector3d(0.95, -0.2, 0.25), Vector3d(1.05, -0.1, 0.35) },  // wrist 2
+      { Vector3d(0.9, -0.25, 0.1), Vector3d(1.05, -0.05, 0.25) },  // gripper
+    };
+    std::vector<laserscan_common::RobotShape> shapes;
+    std::vector<Eigen::Isometry3d> poses;
+    for (std::size_t i = 0; i < links.size(); ++i)
+    {
+      scene.boxes.push_back(links[i]);
+      laserscan_common::RobotShape s;
+      s.name = s.frame = "link" + std::to_string(i + 1);
+      const Vector3d half = 0.5 * (links[i].hi - links[i].lo);
+      // A cylinder around the shoulder's box, a sphere around wrist 2's, boxes for the others.
+      const double radius = std::hypot(half.x(), half.y());
+      s.kind = i == 0   ? laserscan_common::ShapeKind::kCylinder
+               : i == 4 ? laserscan_common::ShapeKind::kSphere
+                        : laserscan_common::ShapeKind::kBox;
+      s.half_extents = i == 0 ? Vector3d(radius, radius, half.z()) : i == 4 ? Vector3d::Constant(half.norm()) : half;
+      s.padding = 0.02;
+      shapes.push_back(s);
+      poses.push_back(Eigen::Isometry3d(Eigen::Translation3d(0.5 * (links[i].lo + links[i].hi))));
+    }
+    a.filter = laserscan_common::SelfFilter(shapes, "self_filter/shapes");
+    a.filter.setFramePoses(poses);
+    a.in.camera_to_reference = cameraMount(0.6, 20 * kDeg);
+    const Points pts = render(scene, a.in.camera_to_reference, 320, 163, 87 * kDeg);
+    a.in.cloud = makeCloud<float>(pts, 320, 163, 0, 16);
+    a.in.view = a.in.cloud.view();
+    for (const auto& p : pts)
+    {
+      if (!std::isfinite(p.x()))
+        continue;
+      ++a.in.valid_points;
+      const Vector3d r = a.in.camera_to_reference * p;
+      a.arm_points +=
+        a.filter.contains(static_cast<float>(r.x()), static_cast<float>(r.y()), static_cast<float>(r.z()));
+    }
+    return a;
   }();
   return input;
 }
@@ -98,6 +164,19 @@ void runCore(benchmark::State& state, const Input* in)
   state.counters["points"] = static_cast<double>(in->view.size());
   state.counters["points/s"] =
     benchmark::Counter(static_cast<double>(in->view.size()), benchmark::Counter::kIsIterationInvariantRate);
+}
+
+// The arm cloud through the core, without and with the self filter.
+void runArm(benchmark::State& state, bool self_filter)
+{
+  const ArmInput& a = syntheticWithArm();
+  dfsc::Projector projector{ dfsc::Parameters() };
+  std::vector<float> ranges;
+  for (auto _ : state)
+  {
+    projector.project(a.in.view, a.in.camera_to_reference, ranges, nullptr, nullptr, self_filter ? &a.filter : nullptr);
+    benchmark::DoNotOptimize(ranges.data());
+  }
 }
 
 void runReference(benchmark::State& state, const Input* in)
@@ -213,6 +292,8 @@ void BM_Reference_FivePeople640x480(benchmark::State& s)
 BENCHMARK(BM_Core_Synthetic320x163)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK(BM_Reference_Synthetic320x163)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK(BM_Core_FivePeople640x480)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runArm, WithoutSelfFilter, false)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runArm, WithSelfFilter, true)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK(BM_Reference_FivePeople640x480)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runImageCore, Depth640x480, 640u, 480u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runCloudPath, Depth640x480, 640u, 480u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
@@ -248,6 +329,11 @@ public:
       if (core > 0 && ref > 0)
         std::printf("%-20s %10.4f %15.4f %7.1fx\n", cloud, core, ref, ref / core);
     }
+    const double without = median("runArm/WithoutSelfFilter");
+    const double with = median("runArm/WithSelfFilter");
+    if (without > 0 && with > 0)
+      std::printf("\n%-22s %10s %18s %8s\n%-22s %10.4f %18.4f %7.2fx\n", "cloud with 6-link arm", "core [ms]",
+                  "with self filter", "ratio", "Synthetic320x163Arm", without, with, with / without);
     std::printf("\n%-20s %15s %26s %8s %18s\n", "depth frame (16UC1)", "image core [ms]", "point_cloud_xyz+core [ms]",
                 "ratio", "cloud core [ms]");
     for (const char* frame : { "Depth640x480", "Depth1280x720" })
@@ -290,6 +376,8 @@ int main(int argc, char** argv)
   if (const Input* fp = fivePeople())
     std::printf("five_people.pcd: %zu points, %zu valid\n", fp->view.size(), fp->valid_points);
   std::printf("synthetic: %zu points, %zu valid\n", synthetic().view.size(), synthetic().valid_points);
+  std::printf("synthetic with arm: %zu points, %zu valid, %zu on the arm's padded shapes\n",
+              syntheticWithArm().in.view.size(), syntheticWithArm().in.valid_points, syntheticWithArm().arm_points);
   RatioReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
   reporter.printRatios();

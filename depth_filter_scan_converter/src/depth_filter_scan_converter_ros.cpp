@@ -13,6 +13,7 @@
 #include <type_traits>
 
 #include "depth_filter_scan_converter/cloud_view.hpp"
+#include "laserscan_common/self_filter_parameters.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -86,6 +87,17 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
              private_nh_.getNamespace().c_str(), frame_id.c_str(), input_topic_.c_str(), used.c_str());
   });
   tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, private_nh_.getNamespace());
+  std::vector<std::string> self_filter_warnings;
+  self_filter_ =
+    laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(private_nh_), nh_, self_filter_warnings);
+  for (const std::string& warning : self_filter_warnings)
+    ROS_WARN("[%s] self filter: %s", private_nh_.getNamespace().c_str(), warning.c_str());
+  // A message waits for its own transform and for those of the robot's parts at its stamp.
+  tf_targets_ = { params_.transform.reference_frame };
+  tf_targets_.insert(tf_targets_.end(), self_filter_.frames().begin(), self_filter_.frames().end());
+  if (!self_filter_.empty())
+    ROS_INFO("[%s] self filter: %zu shapes on %zu frames", private_nh_.getNamespace().c_str(),
+             self_filter_.shapes().size(), self_filter_.frames().size());
 
   // Messages wait in the tf filter (never in a callback) until their transform is there. The
   // filter delivers through nh's callback queue, so processing runs in the node's own threads.
@@ -94,6 +106,7 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
   {
     cloud_filter_ =
       std::make_unique<tf2_ros::MessageFilter<Cloud>>(tf_buffer_, params_.transform.reference_frame, queue, nh_);
+    cloud_filter_->setTargetFrames(tf_targets_);
     cloud_filter_->registerCallback([this](const Cloud::ConstPtr& cloud) { process(cloud); });
     cloud_filter_->registerFailureCallback(
       [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
@@ -104,6 +117,7 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
   {
     image_filter_ =
       std::make_unique<tf2_ros::MessageFilter<Image>>(tf_buffer_, params_.transform.reference_frame, queue, nh_);
+    image_filter_->setTargetFrames(tf_targets_);
     image_filter_->registerCallback([this](const Image::ConstPtr& image) { process(image); });
     image_filter_->registerFailureCallback(
       [this](const Image::ConstPtr& image, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
@@ -199,10 +213,11 @@ DepthFilterScanConverter::Admission DepthFilterScanConverter::admit(const std_ms
     return Admission::Dropped;
   }
   const tf2::BufferCore& transforms = tf_buffer_;
-  return transforms.canTransform(params_.transform.reference_frame, laserscan_common::tf2FrameId(header.frame_id),
-                                 header.stamp)
-           ? Admission::Ready
-           : Admission::Wait;
+  const std::string frame = laserscan_common::tf2FrameId(header.frame_id);
+  for (const std::string& target : tf_targets_)
+    if (!transforms.canTransform(target, frame, header.stamp))
+      return Admission::Wait;
+  return Admission::Ready;
 }
 
 bool DepthFilterScanConverter::convertInPlace(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size)
@@ -383,6 +398,10 @@ void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* byt
                                     laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec) +
                                     " is not finite (a chain of transforms sums to infinity)");
     camera_to_reference = tf2::transformToEigen(transform);
+    // The robot's parts where they are at the cloud's stamp: one lookup per frame.
+    if (!self_filter_.empty())
+      laserscan_common::setFramePosesAt(tf_buffer_, params_.transform.reference_frame, cloud->header.stamp,
+                                        self_filter_);
   }
   catch (const std::exception& e)  // tf2 also throws std::runtime_error on stamps past 32 bits
   {
@@ -404,7 +423,8 @@ void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* byt
   scan->range_min = static_cast<float>(params_.scan.range_min);
   scan->range_max = static_cast<float>(params_.scan.range_max);
   const bool want_cloud = params_.publish_filtered_cloud && cloud_pub_ && cloud_pub_.getNumSubscribers() > 0;
-  projector_.project(view, camera_to_reference, scan->ranges, &scan->intensities, want_cloud ? &kept_points_ : nullptr);
+  projector_.project(view, camera_to_reference, scan->ranges, &scan->intensities, want_cloud ? &kept_points_ : nullptr,
+                     &self_filter_);
   scan_pub_.publish(scan);  // not touched after this: shared zero-copy with nodelets in the manager
 
   if (want_cloud)

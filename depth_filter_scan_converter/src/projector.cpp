@@ -89,8 +89,9 @@ struct Projector::Frame
   float a_min, inv_inc;  // exact angle_min for the bin formula
   int beams;
   std::uint32_t row_stride, column_stride;
-  bool hole;     // hole detection on, and the camera above the floor
-  bool cluster;  // beams read the closest cluster's mean (a range noise model is set)
+  bool hole;                                 // hole detection on, and the camera above the floor
+  bool cluster;                              // beams read the closest cluster's mean (a range noise model is set)
+  const laserscan_common::SelfFilter* self;  // nullptr: no self filter
 };
 
 Projector::Projector(const Parameters& params)
@@ -110,6 +111,10 @@ constexpr std::uint32_t kChunk = 256;
 // Rejected points go to one of these slots after the last beam, spread by index so that pass 3
 // can update the minimum without a branch and without one long chain of stores to one slot.
 constexpr std::int32_t kScratchSlots = 8;
+// Squared range of a point on the robot itself (self filter): finite, so that it stays in its
+// beam, but larger than any real obstacle's, so that any obstacle of the beam wins the minimum;
+// a beam left with it reads NaN (nothing seen there). Never kept nor recorded.
+constexpr float kSelfR2 = FLT_MAX;
 
 // One chunk of points of a row, as plain float arrays (structure of arrays).
 struct alignas(64) Chunk
@@ -242,6 +247,32 @@ DFSC_DEPTH_KERNEL(kernelDepthMetres, float, false)
 DFSC_DEPTH_KERNEL(kernelDepthMetresHole, float, true)
 #undef DFSC_DEPTH_KERNEL
 
+// The self filter on a chunk after pass 2: the points that would be projected (finite r2) and
+// lie inside the shapes' bounding box are tested against the shapes (almost always none: one
+// vectorized pass over the chunk); those inside a shape get kSelfR2. Cloned like the kernels,
+// so that the inlined shape tests vectorize too.
+DFSC_CLONES void removeSelfPoints(const laserscan_common::SelfFilter& filter, std::uint32_t n, Chunk& c)
+{
+  const laserscan_common::Bounds& b = filter.bounds();
+  const float lx = b.lo.x(), ly = b.lo.y(), lz = b.lo.z(), hx = b.hi.x(), hy = b.hi.y(), hz = b.hi.z();
+  alignas(64) std::int32_t active[kChunk];
+  alignas(64) std::int32_t inside[kChunk];
+  const float inf = std::numeric_limits<float>::infinity();
+  std::int32_t any = 0;
+  for (std::uint32_t i = 0; i < n; ++i)
+  {
+    const float x = c.xs[i], y = c.ys[i], z = c.zs[i];
+    const std::int32_t a = (c.r2s[i] < inf) & (x >= lx) & (x <= hx) & (y >= ly) & (y <= hy) & (z >= lz) & (z <= hz);
+    active[i] = a;
+    inside[i] = 0;
+    any |= a;
+  }
+  if (!any || !filter.markInside(n, c.xs, c.ys, c.zs, active, inside))
+    return;
+  for (std::uint32_t i = 0; i < n; ++i)
+    c.r2s[i] = inside[i] ? kSelfR2 : c.r2s[i];
+}
+
 using DepthKernel = void (*)(const std::uint8_t*, std::size_t, const float*, float, float, float, float, std::uint32_t,
                              const Projector::Frame&, Chunk&);
 
@@ -252,7 +283,6 @@ __attribute__((always_inline)) inline void keepClosest(const Chunk& c, std::uint
                                                        std::uint32_t index_step, float* best, std::uint32_t* best_index,
                                                        std::vector<float>* kept, Projector::Record& record)
 {
-  const float inf = std::numeric_limits<float>::infinity();
   std::size_t k = record.count;
   for (std::uint32_t i = 0; i < n; ++i)
   {
@@ -260,7 +290,7 @@ __attribute__((always_inline)) inline void keepClosest(const Chunk& c, std::uint
     {
       record.bins[k] = c.bins[i];
       record.r2s[k] = c.r2s[i];
-      k += c.r2s[i] < inf ? 1 : 0;
+      k += c.r2s[i] < kSelfR2 ? 1 : 0;
     }
     const std::int32_t b = c.bins[i];
     if (!kIndex)
@@ -273,7 +303,7 @@ __attribute__((always_inline)) inline void keepClosest(const Chunk& c, std::uint
       best[b] = c.r2s[i];
       best_index[b] = first_index + i * index_step;
     }
-    if (kKeep && c.r2s[i] < inf)
+    if (kKeep && c.r2s[i] < kSelfR2)
     {
       kept->push_back(c.xs[i]);
       kept->push_back(c.ys[i]);
@@ -323,6 +353,8 @@ void Projector::run(const CloudView& v, const Frame& f, std::vector<float>* kept
     {
       const std::uint32_t n = std::min(kChunk, (v.width - c0 + f.column_stride - 1) / f.column_stride);
       kernel(row + static_cast<std::size_t>(c0) * v.point_step, col_step, v.x_offset, v.y_offset, v.z_offset, n, f, c);
+      if (f.self)
+        removeSelfPoints(*f.self, n, c);
       Record record = recordSpace(f, n);
       keepClosest<kIndex, kKeep>(c, n, r * v.width + c0, f.column_stride, best, best_index, kept, record);
       recorded_points_ = record.count;
@@ -357,6 +389,8 @@ void Projector::runDepth(const DepthImageView& v, const Frame& f, std::vector<fl
     {
       const std::uint32_t n = std::min<std::uint32_t>(kChunk, static_cast<std::uint32_t>(column_offsets_.size()) - k0);
       kernel(row + k0 * col_step, col_step, column_offsets_.data() + k0, dv, kx, ky, unit, n, f, c);
+      if (f.self)
+        removeSelfPoints(*f.self, n, c);
       Record record = recordSpace(f, n);
       keepClosest<false, kKeep>(c, n, 0, 0, best, nullptr, kept, record);
       recorded_points_ = record.count;
@@ -383,7 +417,8 @@ void Projector::dispatchOutputs(const CloudView& cloud, const Frame& frame, bool
   }
 }
 
-Projector::Frame Projector::start(const Eigen::Isometry3d& camera_to_reference, std::vector<float>* kept_points)
+Projector::Frame Projector::start(const Eigen::Isometry3d& camera_to_reference, std::vector<float>* kept_points,
+                                  const laserscan_common::SelfFilter* self_filter)
 {
   const Parameters& p = params_;
   const int beams = static_cast<int>(p.scan.beamCount());
@@ -413,6 +448,7 @@ Projector::Frame Projector::start(const Eigen::Isometry3d& camera_to_reference, 
   // A ray from a camera at or below the floor never meets the floor in front of it.
   f.hole = p.band.hole_detection && t.z() > p.band.floor_height;
   f.cluster = p.noise.clusterRanges();
+  f.self = self_filter && !self_filter->empty() && !self_filter->bounds().empty() ? self_filter : nullptr;
   recorded_points_ = 0;
   return f;
 }
@@ -435,8 +471,12 @@ void Projector::finish(const Frame& f, std::vector<float>& ranges)
   ranges.resize(f.beams);
   const float no_return = p.scan.noReturnValue();
   const float too_close = p.scan.tooCloseValue();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int b = 0; b < f.beams; ++b)
-    ranges[b] = std::isinf(best_r2_[b]) ? no_return : best_r2_[b] < f.r2_min ? too_close : std::sqrt(best_r2_[b]);
+    ranges[b] = std::isinf(best_r2_[b])  ? no_return
+                : best_r2_[b] == kSelfR2 ? nan
+                : best_r2_[b] < f.r2_min ? too_close
+                                         : std::sqrt(best_r2_[b]);
   if (!f.cluster)
     return;
 
@@ -451,8 +491,8 @@ void Projector::finish(const Frame& f, std::vector<float>& ranges)
   cluster_count_.assign(slots * kBanks, 0);
   for (int b = 0; b < f.beams; ++b)
   {
-    if (std::isinf(best_r2_[b]) || best_r2_[b] < f.r2_min)
-      continue;  // no return, or too close: the closest point decides
+    if (std::isinf(best_r2_[b]) || best_r2_[b] == kSelfR2 || best_r2_[b] < f.r2_min)
+      continue;  // no return, only the robot, or too close: the closest point decides
     const double limit = ranges[b] + RangeNoiseParams::kClusterWidth * p.noise.rangeNoiseStd(ranges[b]);
     cluster_limit_r2_[b] = static_cast<float>(limit * limit);
   }
@@ -487,9 +527,10 @@ void Projector::finish(const Frame& f, std::vector<float>& ranges)
 }
 
 void Projector::project(const DepthImageView& image, const Eigen::Isometry3d& camera_to_reference,
-                        std::vector<float>& ranges, std::vector<float>* intensities, std::vector<float>* kept_points)
+                        std::vector<float>& ranges, std::vector<float>* intensities, std::vector<float>* kept_points,
+                        const laserscan_common::SelfFilter* self_filter)
 {
-  const Frame f = start(camera_to_reference, kept_points);
+  const Frame f = start(camera_to_reference, kept_points, self_filter);
   if (image.size() > 0 && image.data)
   {
     if (f.hole)
@@ -503,9 +544,10 @@ void Projector::project(const DepthImageView& image, const Eigen::Isometry3d& ca
 }
 
 void Projector::project(const CloudView& cloud, const Eigen::Isometry3d& camera_to_reference,
-                        std::vector<float>& ranges, std::vector<float>* intensities, std::vector<float>* kept_points)
+                        std::vector<float>& ranges, std::vector<float>* intensities, std::vector<float>* kept_points,
+                        const laserscan_common::SelfFilter* self_filter)
 {
-  const Frame f = start(camera_to_reference, kept_points);
+  const Frame f = start(camera_to_reference, kept_points, self_filter);
   const int beams = f.beams;
   const bool want_index = intensities && cloud.has_intensity;
   if (want_index)
@@ -539,7 +581,7 @@ void Projector::project(const CloudView& cloud, const Eigen::Isometry3d& camera_
       intensities->resize(beams, 0.0f);
       for (int b = 0; b < beams; ++b)
       {
-        if (std::isinf(best_r2_[b]))
+        if (std::isinf(best_r2_[b]) || best_r2_[b] == kSelfR2)
           continue;
         const std::uint32_t i = best_index_[b];
         const std::uint8_t* pt = cloud.data + static_cast<std::size_t>(i / cloud.width) * cloud.row_step +

@@ -774,3 +774,107 @@ int main(int argc, char** argv)
   testing::InitGoogleTest(&argc, argv);
   return RUN_ALL_TESTS();
 }
+
+// ---------------------------------------------------------------- self filter
+
+namespace
+{
+// Two links of an arm in front of a camera 0.6 m high pitched 10 degrees down, a wall at 3 m:
+// a tall link that hides the wall in its beams (left, 11-22 degrees) and a short one in the band
+// with the wall visible above it and a post 3 cm beyond its padded shape visible below it
+// (right, around -15 degrees).
+struct ArmScene
+{
+  Scene scene;
+  Eigen::Isometry3d cam = cameraMount(0.6, 10 * kDeg);
+  Points points;
+  laserscan_common::SelfFilter filter;
+
+  ArmScene()
+  {
+    scene.wall_x = 3.0;
+    scene.boxes.push_back({ Vector3d(1.0, 0.2, 0.0), Vector3d(1.2, 0.4, 1.4) });      // tall link
+    scene.boxes.push_back({ Vector3d(1.0, -0.4, 0.3), Vector3d(1.2, -0.2, 0.6) });    // short link
+    scene.boxes.push_back({ Vector3d(1.25, -0.4, 0.0), Vector3d(1.35, -0.2, 0.2) });  // post behind it
+    points = render(scene, cam, 200, 150, 60 * kDeg);
+    laserscan_common::RobotShape tall, short_link;
+    tall.name = "tall", tall.frame = "tall_link", tall.kind = laserscan_common::ShapeKind::kBox;
+    tall.half_extents = Vector3d(0.1, 0.1, 0.7);
+    tall.padding = 0.02;
+    short_link = tall;
+    short_link.name = "short", short_link.frame = "short_link", short_link.half_extents = Vector3d(0.1, 0.1, 0.15);
+    filter = laserscan_common::SelfFilter({ tall, short_link }, "self_filter/shapes");
+    filter.setFramePoses({ Eigen::Isometry3d(Eigen::Translation3d(1.1, 0.3, 0.7)),
+                           Eigen::Isometry3d(Eigen::Translation3d(1.1, -0.3, 0.45)) });
+  }
+};
+
+float beamAt(const dfsc::Parameters& p, const std::vector<float>& ranges, double angle_deg)
+{
+  return ranges[binOf(p, angle_deg * kDeg)];
+}
+}  // namespace
+
+TEST(SelfFilter, ArmPointsAreNeitherObstaclesNorSeeThrough)
+{
+  const ArmScene arm;
+  const TestCloud cloud = makeCloud<float>(arm.points, 200, 150);
+  dfsc::Parameters p;
+  dfsc::Projector proj(p);
+  std::vector<float> plain, filtered, kept;
+  proj.project(cloud.view(), arm.cam, plain);
+  proj.project(cloud.view(), arm.cam, filtered, nullptr, &kept, &arm.filter);
+  // Without the filter, both links are obstacles at about 1 m.
+  EXPECT_NEAR(beamAt(p, plain, 16.0), 1.04, 0.03);
+  EXPECT_NEAR(beamAt(p, plain, -15.0), 1.04, 0.03);
+  // With it: the tall link's beams saw nothing else (NaN: not free either) ...
+  for (double a = 13.0; a <= 20.0; a += 1.0)
+    EXPECT_TRUE(std::isnan(beamAt(p, filtered, a))) << a << " deg: " << beamAt(p, filtered, a);
+  // ... the short link's beams read what lies beyond it: the post below it, 3 cm beyond the
+  // padded shape, and the wall above it where the post is not.
+  EXPECT_NEAR(beamAt(p, filtered, -12.0), 1.25 / std::cos(12.0 * kDeg), 0.02);
+  EXPECT_NEAR(beamAt(p, filtered, -7.0), 3.0 / std::cos(7.0 * kDeg), 0.03);
+  // Beams away from the arm are unchanged.
+  for (double a = -40.0; a <= 40.0; a += 0.5)
+  {
+    if (a < -23.0 || (a > -7.0 && a < 8.0) || a > 23.0)
+    {
+      EXPECT_EQ(beamAt(p, filtered, a), beamAt(p, plain, a)) << a;
+    }
+  }
+  // No kept point lies on the robot.
+  ASSERT_FALSE(kept.empty());
+  for (std::size_t i = 0; i < kept.size(); i += 3)
+    EXPECT_FALSE(arm.filter.contains(kept[i], kept[i + 1], kept[i + 2])) << kept[i] << " " << kept[i + 1];
+}
+
+TEST(SelfFilter, TheSameWithIntensitiesAndTheRangeNoiseModel)
+{
+  const ArmScene arm;
+  std::vector<float> intensity(arm.points.size(), 5.0f);
+  const TestCloud cloud = makeCloud<float>(arm.points, 200, 150, 0, 0, 0, intensity);
+  dfsc::Parameters p;
+  p.noise.range_noise_std = 0.001;
+  dfsc::Projector proj(p);
+  std::vector<float> ranges, intensities;
+  proj.project(cloud.view("intensity"), arm.cam, ranges, &intensities, nullptr, &arm.filter);
+  EXPECT_TRUE(std::isnan(beamAt(p, ranges, 16.0)));
+  EXPECT_EQ(intensities[binOf(p, 16.0 * kDeg)], 0.0f);  // no return there: no intensity
+  EXPECT_NEAR(beamAt(p, ranges, -12.0), 1.25 / std::cos(12.0 * kDeg), 0.02);
+  EXPECT_EQ(intensities[binOf(p, -12.0 * kDeg)], 5.0f);
+}
+
+TEST(SelfFilter, AMovedLinkIsFilteredWhereItIsNow)
+{
+  ArmScene arm;
+  const TestCloud cloud = makeCloud<float>(arm.points, 200, 150);
+  dfsc::Parameters p;
+  dfsc::Projector proj(p);
+  std::vector<float> ranges;
+  // The shapes moved away (1 m to the left): the links in view are obstacles again.
+  arm.filter.setFramePoses({ Eigen::Isometry3d(Eigen::Translation3d(1.1, 1.3, 0.7)),
+                             Eigen::Isometry3d(Eigen::Translation3d(1.1, 0.7, 0.45)) });
+  proj.project(cloud.view(), arm.cam, ranges, nullptr, nullptr, &arm.filter);
+  EXPECT_NEAR(beamAt(p, ranges, 16.0), 1.04, 0.03);
+  EXPECT_NEAR(beamAt(p, ranges, -15.0), 1.04, 0.03);
+}

@@ -20,13 +20,15 @@ namespace
 {
 const float kInfF = std::numeric_limits<float>::infinity();
 
-// Beams that differ between two scans; +Inf and -Inf are different values. `tol` is relative.
+// Beams that differ between two scans; +Inf and -Inf are different values, NaN (a beam that saw
+// only the robot) equals NaN. `tol` is relative.
 std::size_t differences(const std::vector<float>& a, const std::vector<float>& b, float tol = 1e-6f)
 {
   EXPECT_EQ(a.size(), b.size());
   std::size_t n = 0;
   for (std::size_t i = 0; i < a.size() && i < b.size(); ++i)
-    if (!(a[i] == b[i] || std::fabs(a[i] - b[i]) <= tol * std::max(1.0f, std::fabs(b[i]))))
+    if (!(a[i] == b[i] || (std::isnan(a[i]) && std::isnan(b[i])) ||
+          std::fabs(a[i] - b[i]) <= tol * std::max(1.0f, std::fabs(b[i]))))
       ++n;
   return n;
 }
@@ -155,6 +157,43 @@ TEST_P(RoomFrames, SameScanAsPointCloudXyzAndTheCloudCore)
   // Too close reads -Inf in both.
   const BothPaths close = bothPaths(options[3], frame, mount);
   EXPECT_GT(std::count(close.image.begin(), close.image.end(), -kInfF), 10);
+}
+
+// The self filter on the depth-image path: the room's chair taken for a part of the robot (a
+// padded box around it) leaves the same scan as on point_cloud_xyz's cloud, and a different one
+// from the unfiltered scan (the chair's beams read NaN or what lies beyond).
+TEST_P(RoomFrames, SelfFilterGivesTheSameScanOnBothPaths)
+{
+  Eigen::Isometry3d mount;
+  const DepthFrame frame = roomFrame(320, 163, GetParam(), mount);
+  laserscan_common::RobotShape chair;
+  chair.name = chair.frame = "chair";
+  chair.half_extents = Eigen::Vector3d(0.225, 0.225, 0.225);
+  chair.padding = 0.02;
+  laserscan_common::SelfFilter filter({ chair }, "self_filter/shapes");
+  filter.setFramePoses({ Eigen::Isometry3d(Eigen::Translation3d(1.225, 0.725, 0.225)) });
+  dfsc::Projector projector{ dfsc::Parameters() };
+  std::vector<float> plain, image, cloud;
+  const dfsc::DepthImageView view = imageView(frame);
+  projector.project(view, mount, plain);
+  projector.project(view, mount, image, nullptr, nullptr, &filter);
+  const sensor_msgs::PointCloud2Ptr xyz = pointCloudXyz(frame);
+  projector.project(cloudView(*xyz), mount, cloud, nullptr, nullptr, &filter);
+  EXPECT_EQ(differences(image, cloud), 0u);
+  EXPECT_GT(differences(image, plain), 10u);
+  // In the chair's directions (20-43 degrees left), only what lies beyond it (cabinet, wall).
+  const dfsc::Parameters p;
+  std::size_t beyond = 0;
+  for (std::size_t b = 0; b < image.size(); ++b)
+  {
+    const double a = p.scan.angle_min + b * p.scan.angle_increment;
+    if (a > 0.35 && a < 0.75 && std::isfinite(image[b]))
+    {
+      EXPECT_GT(image[b], 1.6f) << b;
+      ++beyond;
+    }
+  }
+  EXPECT_GT(beyond, 10u);
 }
 
 INSTANTIATE_TEST_SUITE_P(Encodings, RoomFrames, ::testing::Values("16UC1", "32FC1"));

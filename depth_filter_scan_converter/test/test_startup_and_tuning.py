@@ -251,3 +251,58 @@ def test_malformed_warnings_are_throttled_though_stamps_differ(ros_env):
     assert alive, out
     warnings = [line for line in out.splitlines() if "dropped a malformed cloud" in line]
     assert 1 <= len(warnings) <= 2 and "empty frame_id" in warnings[0], out
+
+
+SELF_FILTER_CASES = [
+    # (YAML of the self_filter block, the parameter the node names, or None: it starts)
+    ("self_filter: {padding: -0.1}", "self_filter/padding"),
+    ("self_filter: {paddding: 0.1}", "self_filter/paddding"),
+    ("self_filter: {links: [arm]}", "self_filter/links"),
+    ("self_filter: {shapes: [{type: box, size: [0.1, 0.1, 0.1]}]}", "self_filter/shapes[0]/frame"),
+    ("self_filter: {shapes: [{frame: arm, type: cone, radius: 0.1}]}", "self_filter/shapes[0]/type"),
+    ("self_filter: {shapes: [{frame: arm, type: box, size: [0.1, 0.1]}]}", "self_filter/shapes[0]/size"),
+    ("self_filter: {shapes: [{frame: arm, type: sphere, radius: 0.1, length: 1.0}]}", "self_filter/shapes[0]/length"),
+    ("self_filter: {shapes: [{frame: arm, type: cylinder, radius: 0.0, length: 1.0}]}", "self_filter/shapes[0]"),
+    ("self_filter: {shapes: [{frame: arm, type: sphere, radius: 0.1, origin: [0, 0, 0]}]}",
+     "self_filter/shapes[0]/origin"),
+    ("self_filter: {shapes: [{frame: arm, type: sphere, radius: 0.1, padding: -1.0}]}", "self_filter/shapes[0]"),
+    ("self_filter: {shapes: [{name: load, frame: tool0, type: box, size: [0.3, 0.2, 0.1], "
+     "origin: [0, 0, 0.05, 0, 0, 0], padding: 0.03}, {frame: arm, type: cylinder, radius: 0.05, length: 0.4}]}", None),
+]
+
+
+@pytest.mark.parametrize("yaml_text,parameter", SELF_FILTER_CASES)
+def test_self_filter_config_verdicts_of_node_and_check_config_agree(ros_env, yaml_text, parameter):
+    """The converter node and scripts/check_config judge each self_filter block alike (the node
+    names the parameter; the checker flags the same key)."""
+    import yaml
+
+    sys.path.insert(0, os.path.join(os.path.dirname(PKG), "scripts"))
+    from laserscan_toolbox import config_check as cc
+
+    problems = cc.check_converter(yaml.safe_load(yaml_text))
+    load_params(ros_env, "conv_self", yaml_text)
+    p = start(ros_env, "conv_self")
+    if parameter is None:
+        time.sleep(3.0)
+        assert p.poll() is None, stop(p)
+        out = stop(p)
+        assert "self filter: 2 shapes on 2 frames" in out, out
+        assert problems == []
+        return
+    try:
+        out, _ = p.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        pytest.fail("node kept running with a bad self_filter: " + stop(p))
+    assert p.returncode != 0
+    assert "FATAL" in out and "'%s" % parameter in out, out
+    flagged = parameter.replace("/", ".")
+    assert any(problem.startswith(flagged) for problem in problems), (flagged, problems)
+
+
+def test_self_filter_without_a_robot_description_stops_the_node(ros_env):
+    load_params(ros_env, "conv_self_urdf", "self_filter: {use_robot_description: true}")
+    p = start(ros_env, "conv_self_urdf")
+    out, _ = p.communicate(timeout=20)
+    assert p.returncode != 0
+    assert "'robot_description': is empty or not set" in out, out

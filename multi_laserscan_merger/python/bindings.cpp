@@ -49,6 +49,7 @@ SourceParams sourceFromDict(const py::dict& d)
   get(d, "deskew", s.deskew);
   get(d, "too_close_is_obstacle", s.too_close_is_obstacle);
   get(d, "footprint_filter", s.footprint_filter);
+  get(d, "self_filter", s.self_filter);
   get(d, "drop_explained_within", s.drop_explained_within);
   return s;
 }

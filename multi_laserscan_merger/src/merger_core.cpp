@@ -221,7 +221,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
   };
 
   auto add_source = [&](std::size_t s) {
-    const SourceInput& in = inputs[s];
+    const SourceInput& in = withoutSelfReturns(s, inputs[s]);
     const ScanView& scan = in.scan;
     updateCache(s, scan);
     const std::size_t n = scan.n_ranges;
@@ -320,6 +320,27 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     out.intensities.clear();
   out.ranges.resize(n_out_);
   applyOutputLimits(r.data(), out.ranges.data(), n_out_, rmin, rmax, no_return, invalid, too_close);
+}
+
+const SourceInput& MergerCore::withoutSelfReturns(std::size_t source, const SourceInput& in)
+{
+  if (!in.self_filter || in.self_filter->empty() || in.self_filter->bounds().empty())
+    return in;
+  // A return is the point (r cos a, r sin a, 0) of the sensor's frame, the frame the shapes are
+  // posed in. Per beam, only when inside the shapes' bounding box: a few hundred beams per scan.
+  updateCache(source, in.scan);
+  const SourceCache& c = caches_[source];
+  const ScanView& scan = in.scan;
+  self_ranges_.assign(scan.ranges, scan.ranges + scan.n_ranges);
+  for (std::size_t i = 0; i < scan.n_ranges; ++i)
+  {
+    const float r = self_ranges_[i];
+    if (std::isfinite(r) && in.self_filter->contains(r * c.cos_a[i], r * c.sin_a[i], 0.0f))
+      self_ranges_[i] = kFNaN;
+  }
+  self_input_ = in;
+  self_input_.scan.ranges = self_ranges_.data();
+  return self_input_;
 }
 
 // A real range in a bin: finite and not kInvalidMark (planar ranges, too-close kept as range_min).

@@ -9,6 +9,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include "laserscan_common/diagnostics_timer.hpp"
+#include "laserscan_common/self_filter_parameters.hpp"
 
 namespace multi_laserscan_merger
 {
@@ -71,6 +72,7 @@ SourceParams readSource(XmlRpc::XmlRpcValue& item, const std::string& prefix)
                                                "deskew",
                                                "too_close_is_obstacle",
                                                "footprint_filter",
+                                               "self_filter",
                                                "drop_explained_within" };
   for (auto& kv : item)
     if (known.count(kv.first) == 0)
@@ -107,6 +109,7 @@ SourceParams readSource(XmlRpc::XmlRpcValue& item, const std::string& prefix)
   flag("deskew", s.deskew);
   flag("too_close_is_obstacle", s.too_close_is_obstacle);
   flag("footprint_filter", s.footprint_filter);
+  flag("self_filter", s.self_filter);
   return s;
 }
 
@@ -170,9 +173,10 @@ MergerParams loadParams(const ros::NodeHandle& pnh)
 
   XmlRpc::XmlRpcValue list;
   if (!pnh.getParam("sources", list))
-    throw ParameterError("sources",
-                         "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
-                         "range_max, deskew, too_close_is_obstacle, footprint_filter, drop_explained_within}");
+    throw ParameterError(
+      "sources",
+      "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
+      "range_max, deskew, too_close_is_obstacle, footprint_filter, self_filter, drop_explained_within}");
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw ParameterError("sources", "must be a list of dictionaries");
   for (int i = 0; i < list.size(); ++i)
@@ -195,6 +199,17 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
                              "', the merger's own output topic (remap the output or the source)");
   odom_ = OdometryBuffer(static_cast<std::size_t>(params_.odom_queue_size));
   sources_.resize(params_.sources.size());
+  std::vector<std::string> self_filter_warnings;
+  const laserscan_common::SelfFilter self_filter =
+    laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(private_nh_), nh_, self_filter_warnings);
+  for (const std::string& warning : self_filter_warnings)
+    ROS_WARN("%s: self filter: %s", name_.c_str(), warning.c_str());
+  for (std::size_t i = 0; i < sources_.size(); ++i)
+    if (params_.sources[i].self_filter)
+      sources_[i].self_filter = self_filter;
+  if (!self_filter.empty())
+    ROS_INFO("%s: self filter: %zu shapes on %zu frames", name_.c_str(), self_filter.shapes().size(),
+             self_filter.frames().size());
   for (std::size_t i = 0; i < sources_.size(); ++i)
     sources_[i].frame_id =
       laserscan_common::FrameIdNormaliser([this, i](const std::string& frame_id, const std::string& used) {
@@ -215,6 +230,7 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   handlers.merge = [this](std::size_t i, const ScanInMerge& scan) {
     sources_[i].scan = scan.msg;
     sources_[i].output_T_sensor = scan.output_T_sensor;
+    sources_[i].scan_self_filter = scan.self_filter;
   };
   handlers.wait = [this](std::int64_t, const StampSync::Decision& d) {
     for (std::size_t j : d.due)
@@ -325,6 +341,38 @@ bool MultiLaserScanMergerRos::tryTransform(const std::string& frame, const ros::
   return true;
 }
 
+bool MultiLaserScanMergerRos::poseSelfFilter(std::size_t i, const sensor_msgs::LaserScan& msg, const std::string& frame,
+                                             laserscan_common::SelfFilter& posed, std::string& error)
+{
+  const SourceState& s = sources_[i];
+  if (s.self_filter.empty())
+    return true;
+  posed = s.self_filter;
+  // The arm moves during a scan; one pose per scan (not per beam: a few shapes per scan, and
+  // between a lidar's 0.1 s scans the arm moves a few cm): at the middle beam's time when the
+  // source deskews, which halves the largest error, at the stamp otherwise (the time the
+  // merger takes the whole scan for).
+  ros::Time t = msg.header.stamp;
+  if (params_.sources[i].deskew && msg.ranges.size() > 1)
+    t += ros::Duration(0.5 * static_cast<double>(msg.ranges.size() - 1) * msg.time_increment);
+  try
+  {
+    for (const std::string& shape_frame : posed.frames())
+      if (!tf_buffer_.canTransform(frame, shape_frame, t, &error))
+      {
+        error = "self filter: no transform '" + shape_frame + "' -> '" + frame + "': " + error;
+        return false;
+      }
+    laserscan_common::setFramePosesAt(tf_buffer_, frame, t, posed);
+  }
+  catch (const std::exception& e)
+  {
+    error = e.what();
+    return false;
+  }
+  return true;
+}
+
 void MultiLaserScanMergerRos::drop(std::size_t i, std::string why)
 {
   ++sources_[i].dropped;
@@ -384,7 +432,8 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
     clearAll("source '" + sp.name + "' stamps jumped backwards", "stamps of source " + sp.name + " jumped backwards");
   std::string error;
   Eigen::Isometry3d output_T_sensor;
-  if (tryTransform(frame, msg->header.stamp, output_T_sensor, error))
+  laserscan_common::SelfFilter posed;
+  if (tryTransform(frame, msg->header.stamp, output_T_sensor, error) && poseSelfFilter(i, *msg, frame, posed, error))
   {
     if (s.pending)
     {
@@ -393,7 +442,7 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
                 "' before a newer scan was merged: " + s.pending_error);
       s.pending.reset();
     }
-    accept(i, msg, output_T_sensor);
+    accept(i, msg, output_T_sensor, std::move(posed));
   }
   else
   {
@@ -424,10 +473,12 @@ void MultiLaserScanMergerRos::retryPending()
     const sensor_msgs::LaserScan::ConstPtr msg = s.pending;
     std::string error;
     Eigen::Isometry3d output_T_sensor;
-    if (tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor, error))
+    laserscan_common::SelfFilter posed;
+    if (tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor, error) &&
+        poseSelfFilter(i, *msg, s.pending_frame, posed, error))
     {
       s.pending.reset();
-      accept(i, msg, output_T_sensor);
+      accept(i, msg, output_T_sensor, std::move(posed));
     }
     else if ((ros::WallTime::now() - s.pending_since).toSec() > kTransformWait)
     {
@@ -445,7 +496,7 @@ void MultiLaserScanMergerRos::retryPending()
 }
 
 void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg,
-                                     const Eigen::Isometry3d& output_T_sensor)
+                                     const Eigen::Isometry3d& output_T_sensor, laserscan_common::SelfFilter self_filter)
 {
   // outputs_ keeps the scan (unless older than the one kept: a late pending one is not newer
   // information, and its mount must not replace the kept scan's either). publish_rate 0: one
@@ -454,8 +505,8 @@ void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan
   // little behind another) would give a second output with a stamp already published, which
   // consumers that key on stamps take for the same scan: it goes into the next output instead.
   const double now = ros::SteadyTime::now().toSec();
-  outputs_->add(i, static_cast<std::int64_t>(msg->header.stamp.toNSec()), now, ScanInMerge{ msg, output_T_sensor },
-                now);
+  outputs_->add(i, static_cast<std::int64_t>(msg->header.stamp.toNSec()), now,
+                ScanInMerge{ msg, output_T_sensor, std::move(self_filter) }, now);
   if (tick_deferred_)
     publishTick(false);
 }
@@ -673,6 +724,7 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
     {
       inputs_[i].scan = viewOf(*sources_[i].scan);
       inputs_[i].output_T_sensor = sources_[i].output_T_sensor;
+      inputs_[i].self_filter = &sources_[i].scan_self_filter;
     }
   }
   Eigen::Isometry3d output_T_robot;

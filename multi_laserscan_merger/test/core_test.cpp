@@ -502,6 +502,76 @@ TEST(Footprint, ReturnsOnTheRobotAreDroppedOthersKept)
   EXPECT_THROW(bad.validate(), ParameterError);
 }
 
+TEST(SelfFilter, ReturnsOnAMovingArmAreDroppedWithDeskewAndObstaclesBesideItKept)
+{
+  // A lidar 0.2 m ahead of the robot's centre sees a 4 m square room; the arm's forearm, a
+  // 0.2 m box on its own tf frame, stands in front of it, posed (in the sensor's frame) where
+  // the glue's tf lookup put it for each scan. The robot turns at 1 rad/s and the source deskews.
+  const double h = 2.0, dt = 0.1 / 360.0;
+  OdometryBuffer odom(100);
+  for (int i = 0; i <= 40; ++i)
+    odom.add(0.01 * i, Eigen::Vector3d::Zero(), yawQ(0.01 * i));
+  laserscan_common::RobotShape forearm;
+  forearm.name = forearm.frame = "forearm";
+  forearm.half_extents = Eigen::Vector3d(0.1, 0.1, 0.1);
+  forearm.padding = 0.02;
+  laserscan_common::SelfFilter arm({ forearm }, "self_filter/shapes");
+  MergerParams p = oneSource();
+  p.sources[0].deskew = true;
+  MergerCore core(p);
+  const Eigen::Isometry3d mount = pose(0.2, 0.0, 0.0, 0.0, 0.0, 0.0);
+  for (const double arm_y : { -0.5, 0.0, 0.6 })  // the arm moved between scans
+  {
+    // The forearm's near face is 0.6 m ahead of the sensor; a post 4 cm beside its padded
+    // shape, and the room elsewhere.
+    arm.setFramePoses({ Eigen::Isometry3d(Eigen::Translation3d(0.7, arm_y, 0.0)) });
+    Scan s{ std::vector<float>(360), {} };
+    std::size_t on_arm = 0, post_beam = 0;
+    for (std::size_t i = 0; i < 360; ++i)
+    {
+      const double a = s.angle(i);
+      double r = squareRoom(a + i * dt, h) - 0.2 * std::cos(a);  // roughly the room, from the sensor
+      const double y_at_face = 0.6 * std::tan(a);
+      if (std::cos(a) > 0 && std::abs(y_at_face - arm_y) < 0.1)
+      {
+        r = 0.6 / std::cos(a);  // the forearm's face
+        ++on_arm;
+      }
+      else if (std::cos(a) > 0 && y_at_face > arm_y + 0.16 && y_at_face < arm_y + 0.2 && post_beam == 0)
+      {
+        r = 0.6 / std::cos(a);  // a post 4 cm beside the padded forearm, at its face's distance
+        post_beam = i;
+      }
+      s.ranges[i] = static_cast<float>(r);
+    }
+    ASSERT_GT(on_arm, 5u);
+    ASSERT_NE(post_beam, 0u);
+    ScanView v = s.view(0.0);
+    v.time_increment = dt;
+    MergedScan plain, filtered;
+    std::vector<SourceStatus> st;
+    core.merge({ input(v, mount) }, 0.1, &odom, Eigen::Isometry3d::Identity(), plain, st);
+    SourceInput in = input(v, mount);
+    in.self_filter = &arm;
+    core.merge({ in }, 0.1, &odom, Eigen::Isometry3d::Identity(), filtered, st);
+    std::size_t near_plain = 0, near_filtered = 0, invalid = 0;
+    for (std::size_t k = 0; k < plain.ranges.size(); ++k)
+    {
+      // The forearm's face lies 0.8 to 1.0 m from the robot's centre, the post too; the room
+      // at least 1.8 m.
+      near_plain += std::isfinite(plain.ranges[k]) && plain.ranges[k] < 1.3f;
+      near_filtered += std::isfinite(filtered.ranges[k]) && filtered.ranges[k] < 1.3f;
+      invalid += std::isnan(filtered.ranges[k]) && !std::isnan(plain.ranges[k]);
+    }
+    EXPECT_GE(near_plain, on_arm + 1) << arm_y;
+    EXPECT_EQ(near_filtered, 1u) << arm_y << ": only the post stays";  // the post's one beam
+    // The forearm's directions become invalid, not free (one NaN per dropped beam's direction;
+    // two adjacent beams' rays from the sensor may share an output bin).
+    EXPECT_GE(invalid + 2, on_arm) << arm_y << ": the forearm's directions are invalid, not free";
+    EXPECT_GT(invalid, 5u) << arm_y;
+  }
+}
+
 // ---------------------------------------------------------------- output modes
 
 // What each output option writes for no return, too close and invalid.

@@ -91,6 +91,10 @@ def test_shipped_config_starts(ros_env):
     ('sources: [{name: a, topic: x, drop_explained_within: -0.1}]', 'sources[0].drop_explained_within'),
     ('sources: [{name: a, topic: x, drop_explained_within: near}]', 'sources[0].drop_explained_within'),
     ('sources: [%s, {name: b, topic: merged_scan}]' % GOOD_SOURCE, 'sources[1].topic'),
+    ('sources: [{name: a, topic: x, self_filter: 1}]', 'sources[0].self_filter'),
+    ('self_filter: {shapes: [{frame: arm, type: box, size: [0.1, 0.1]}]}\nsources: [%s]' % GOOD_SOURCE,
+     'self_filter/shapes[0]/size'),
+    ('self_filter: {use_robot_description: true}\nsources: [%s]' % GOOD_SOURCE, 'robot_description'),
 ])
 def test_bad_config_stops_node_naming_parameter(ros_env, yaml_text, parameter):
     ns = 'bad_%d' % (abs(hash(yaml_text)) % 100000)
@@ -98,6 +102,14 @@ def test_bad_config_stops_node_naming_parameter(ros_env, yaml_text, parameter):
     code, out = run_node(ros_env, ns, 15.0)
     assert code is not None and code != 0, out
     assert 'FATAL' in out and "parameter '%s'" % parameter in out, out
+
+
+def test_self_filter_block_is_read(ros_env):
+    set_params(ros_env, 'merger_self', 'self_filter: {shapes: [{frame: forearm, type: cylinder, radius: 0.05, '
+                                       'length: 0.4}]}\nsources: [%s]' % GOOD_SOURCE)
+    code, out = run_node(ros_env, 'merger_self', 4.0)
+    assert code is None, out
+    assert 'self filter: 1 shapes on 1 frames' in out, out
 
 
 def test_source_on_the_remapped_output_topic_is_refused(ros_env):

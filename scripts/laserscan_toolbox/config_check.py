@@ -68,6 +68,7 @@ CONVERTER = {
     "depth_image_rectified": Key("bool", True,
                                  doc="depth image input: intrinsics from camera_info's P (rectified), else K"),
     "queue_size": Key("int", 10, lo=1, doc="clouds waiting for their transform"),
+    "self_filter": Key("self_filter", {}, doc="the robot's own parts: points inside are not projected"),
 }
 CONVERTER_PAIRS = [("min_height", "max_height"), ("angle_min", "angle_max"),
                    ("range_min", "range_max")]
@@ -89,6 +90,7 @@ MERGER = {
     "publish_rate": Key("float", 0.0, "Hz", lo=0.0),
     "sync_window": Key("float", 0.01, "s", lo=0.0, hi=1.0, finite=True,
                        doc="how long an output waits for other sources' scans due at its stamp; 0 = never"),
+    "self_filter": Key("self_filter", {}, doc="the robot's own parts: returns inside are dropped"),
     "sources": None,  # checked by check_sources
 }
 MERGER_PAIRS = [("angle_min", "angle_max"), ("range_min", "range_max")]
@@ -104,6 +106,7 @@ SOURCE = {
     "deskew": Key("bool", False),
     "too_close_is_obstacle": Key("bool", True, doc="-Inf is an obstacle at the sensor's range_min"),
     "footprint_filter": Key("bool", True, doc="false: the merger's footprint does not apply"),
+    "self_filter": Key("bool", True, doc="false: the merger's self_filter block does not apply"),
     "drop_explained_within": Key("float", 0.0, "m", lo=0.0, finite=True,
                                  doc="> 0: a scan with a return this close to another source's is dropped "
                                      "(sonar arcs); 0 = off"),
@@ -171,6 +174,8 @@ def check_value(path, key, value):
         return []
     elif key.kind == "polygon":
         return _check_polygon(path, value)
+    elif key.kind == "self_filter":
+        return _check_self_filter(path, value)
     else:
         if not isinstance(value, str):
             return ["%s: expected a string, got %s %r" % (path, _type_name(value), value)]
@@ -186,6 +191,80 @@ def check_value(path, key, value):
     if key.hi is not None and not v <= key.hi:
         return ["%s: must be <= %g%s, got %g" % (path, key.hi, unit, v)]
     return []
+
+
+# The self filter block (laserscan_common's SelfFilterParams, the same for converters and merger).
+SELF_FILTER = {
+    "use_robot_description": Key("bool", False, doc="shapes from the URDF's collision elements"),
+    "links": Key("str_list", [], doc="the description's links to take; empty: all with a collision"),
+    "padding": Key("float", 0.02, "m", lo=0.0, finite=True, doc="margin around every shape"),
+    "shapes": Key("shape_list", [], doc="further shapes: {name, frame, type, size | radius [+ length], "
+                                        "origin, padding}"),
+}
+SHAPE_SIZES = {"box": {"size"}, "cylinder": {"radius", "length"}, "sphere": {"radius"}}
+SHAPE_KEYS = {"name", "frame", "type", "size", "radius", "length", "origin", "padding"}
+
+
+def _positive_numbers(path, value, count):
+    if count > 1 and not (isinstance(value, list) and len(value) == count):
+        return ["%s: must be a list of %d numbers" % (path, count)]
+    values = value if count > 1 else [value]
+    if not all(_num(v) for v in values):
+        return ["%s: must be %s" % (path, "numbers" if count > 1 else "a number")]
+    if not all(math.isfinite(v) and v > 0 for v in values):
+        return ["%s: sizes must be finite and > 0 (m)" % path]
+    return []
+
+
+def _check_shape(path, shape):
+    if not isinstance(shape, dict):
+        return ["%s: must be a dictionary (frame, type, sizes, origin, padding)" % path]
+    problems = ["%s: unknown key" % _join(path, k) for k in shape if k not in SHAPE_KEYS]
+    frame = shape.get("frame")
+    if not isinstance(frame, str) or not frame:
+        problems.append("%s: is required (the tf frame the shape moves with)" % _join(path, "frame"))
+    elif frame.startswith("/"):
+        problems.append("%s: must not start with '/' (tf2 frame ids have none)" % _join(path, "frame"))
+    kind = shape.get("type")
+    if kind not in SHAPE_SIZES:
+        return problems + ["%s: must be box, cylinder or sphere" % _join(path, "type")]
+    for size in ("size", "radius", "length"):
+        wanted = size in SHAPE_SIZES[kind]
+        if (size in shape) != wanted:
+            problems.append("%s: %s for a %s" % (_join(path, size), "is required" if wanted else "is not used", kind))
+        elif wanted:
+            problems += _positive_numbers(_join(path, size), shape[size], 3 if size == "size" else 1)
+    if "origin" in shape and not (isinstance(shape["origin"], list) and len(shape["origin"]) == 6
+                                  and all(_num(v) and math.isfinite(v) for v in shape["origin"])):
+        problems.append("%s: must be a list of 6 numbers (x, y, z, roll, pitch, yaw)" % _join(path, "origin"))
+    if "padding" in shape:
+        problems += check_value(_join(path, "padding"), SELF_FILTER["padding"], shape["padding"])
+    return problems
+
+
+def _check_self_filter(path, value):
+    if not isinstance(value, dict):
+        return ["%s: must be a dictionary (use_robot_description, links, padding, shapes)" % path]
+    problems = []
+    for k, v in value.items():
+        key = SELF_FILTER.get(k)
+        if key is None:
+            problems.append("%s: unknown key" % _join(path, k))
+        elif key.kind == "str_list":
+            if not (isinstance(v, list) and all(isinstance(x, str) for x in v)):
+                problems.append("%s: must be a list of link names" % _join(path, k))
+        elif key.kind == "shape_list":
+            if not isinstance(v, list):
+                problems.append("%s: must be a list of shapes" % _join(path, k))
+            else:
+                for i, shape in enumerate(v):
+                    problems += _check_shape("%s[%d]" % (_join(path, k), i), shape)
+        else:
+            problems += check_value(_join(path, k), key, v)
+    if value.get("links") and value.get("use_robot_description") is not True:
+        problems.append("%s: needs use_robot_description: true (the links are the description's)"
+                        % _join(path, "links"))
+    return problems
 
 
 def _check_polygon(path, value):

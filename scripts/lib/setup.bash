@@ -19,6 +19,8 @@ DEBIAN_PACKAGES=(
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libdiagnostic-updater-dev python3-diagnostic-updater libdepth-image-proc-dev
   liblaser-geometry-dev
+  # the self filter's robot description (URDF collision elements)
+  liburdfdom-dev
   # SLAM and localization experiment: MRPT 2 (rbpf-slam, pf-localization, ros-map-yaml2mrpt;
   # the rawlog converter's libraries) and rosbag's C++ reader
   mrpt-apps mrpt-common libmrpt-obs-dev libmrpt-ros1bridge-dev librosbag-storage-dev

@@ -31,6 +31,7 @@
 #include "depth_filter_scan_converter/parameters.hpp"
 #include "depth_filter_scan_converter/projector.hpp"
 #include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/self_filter.hpp"
 #include "laserscan_common/transform_reader.hpp"
 
 namespace depth_filter_scan_converter
@@ -157,6 +158,10 @@ private:
 
   std::mutex mutex_;  // projector, parameters, statistics
   Projector projector_;
+  /// The robot's own parts (the `self_filter` block; empty: off), posed at each cloud's stamp.
+  laserscan_common::SelfFilter self_filter_;
+  /// Frames a message waits for: reference_frame, then the self filter's.
+  std::vector<std::string> tf_targets_;
   std::vector<float> kept_points_;
   std::deque<Arrival> arrivals_;  // of the messages waiting in the tf filter
 

@@ -8,6 +8,7 @@
 #include "depth_filter_scan_converter/cloud_view.hpp"
 #include "depth_filter_scan_converter/depth_image_view.hpp"
 #include "depth_filter_scan_converter/parameters.hpp"
+#include "laserscan_common/self_filter.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -27,7 +28,13 @@ namespace depth_filter_scan_converter
 ///   within range reads the mean range of its obstacles within kClusterWidth * std(m) of m, at
 ///   most m + kClusterCap * std(m), instead of m: the closest of many noisy points of one
 ///   surface is biased short by about 3 std;
-/// - NaN / Inf points are skipped.
+/// - NaN / Inf points are skipped;
+/// - with a self filter (its shapes posed in the reference frame at the cloud's stamp), a point
+///   that would be an obstacle (or a hole's floor crossing) and lies inside a padded shape of the
+///   robot is not projected: it is no obstacle, and its beam has not seen what lies beyond it
+///   either, so a beam whose only such points are on the robot reads NaN (invalid, REP 117), not
+///   no return; an obstacle point of the same beam still decides. Only points inside the shapes'
+///   bounding box are tested against the shapes.
 /// Beam angles come from fastAtan2 (error < laserscan_common::kFastAtan2MaxError) and the arithmetic is float, so
 /// a point within a few micro-radians (or micrometres) of a border may land on either side.
 ///
@@ -46,14 +53,18 @@ public:
   /// cloud's stamp. `ranges` is resized to beamCount(). `intensities`, if given, is resized to
   /// beamCount() when the view has an intensity field (value of the closest point, 0 where there
   /// is no return) and cleared otherwise. `kept_points`, if given, receives x, y, z (reference
-  /// frame) of every obstacle point (too close ones and hole crossings included).
+  /// frame) of every obstacle point (too close ones and hole crossings included). `self_filter`,
+  /// if given and not empty, holds the robot's shapes at their poses for this cloud (reference
+  /// frame): points inside are not projected (see the rules above).
   void project(const CloudView& cloud, const Eigen::Isometry3d& camera_to_reference, std::vector<float>& ranges,
-               std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr);
+               std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr,
+               const laserscan_common::SelfFilter* self_filter = nullptr);
 
   /// The same for a depth image: its pixels are the points (see DepthImageView), with the same
   /// rules and strides. A depth image has no intensities: `intensities`, if given, is cleared.
   void project(const DepthImageView& image, const Eigen::Isometry3d& camera_to_reference, std::vector<float>& ranges,
-               std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr);
+               std::vector<float>* intensities = nullptr, std::vector<float>* kept_points = nullptr,
+               const laserscan_common::SelfFilter* self_filter = nullptr);
 
   /// Per-cloud constants of the inner loop, and where the inner loop records points for the
   /// range noise model (defined in projector.cpp).
@@ -61,7 +72,8 @@ public:
   struct Record;
 
 private:
-  Frame start(const Eigen::Isometry3d& camera_to_reference, std::vector<float>* kept_points);
+  Frame start(const Eigen::Isometry3d& camera_to_reference, std::vector<float>* kept_points,
+              const laserscan_common::SelfFilter* self_filter);
   void finish(const Frame& frame, std::vector<float>& ranges);
   /// Room for n more recorded points (a null Record without a noise model).
   Record recordSpace(const Frame& frame, std::uint32_t n);

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "laserscan_common/self_filter.hpp"
 #include "multi_laserscan_merger/odometry_buffer.hpp"
 #include "multi_laserscan_merger/parameters.hpp"
 
@@ -75,6 +76,9 @@ struct SourceInput
   ScanView scan;
   /// Output frame <- sensor frame at scan.stamp (full 3D; moving sensors allowed).
   Eigen::Isometry3d output_T_sensor = Eigen::Isometry3d::Identity();
+  /// The robot's own parts posed in the sensor's frame (nullptr or empty: none): a return whose
+  /// point lies inside one is dropped, and its direction becomes invalid (nothing was seen past it).
+  const laserscan_common::SelfFilter* self_filter = nullptr;
 };
 
 enum class SourceStatus : std::uint8_t
@@ -129,6 +133,8 @@ private:
     std::vector<float> in_fov;             ///< 1 inside the source's mask (float: keeps the hot loop vectorisable)
   };
   void updateCache(std::size_t source, const ScanView& scan);
+  /// The input itself, or (with a self filter) a copy whose returns on the robot are NaN.
+  const SourceInput& withoutSelfReturns(std::size_t source, const SourceInput& in);
   /// A return of own_bins_ lies within the source's drop_explained_within of first_pass_bins_.
   bool explainedByFirstPass(std::size_t source) const;
   /// Fuses own_bins_ (and own_ibins_) into bins_ (ibins_) by the first pass's rule.
@@ -149,6 +155,9 @@ private:
   std::vector<float> bins_, ibins_;  ///< fusion buffers: n_out bins + scratch bins (see beam_kernel.hpp)
   /// Second pass (drop_explained_within): the first-pass bins, and one such source's own bins.
   std::vector<float> first_pass_bins_, own_bins_, own_ibins_;
+  /// Self filter: the ranges of the source being added, returns on the robot made NaN.
+  std::vector<float> self_ranges_;
+  SourceInput self_input_;
 };
 
 }  // namespace multi_laserscan_merger

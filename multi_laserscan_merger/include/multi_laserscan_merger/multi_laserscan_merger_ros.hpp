@@ -45,6 +45,11 @@ private:
   {
     sensor_msgs::LaserScan::ConstPtr scan;  ///< latest accepted scan
     Eigen::Isometry3d output_T_sensor = Eigen::Isometry3d::Identity();
+    /// The robot's parts as configured for this source (unposed; empty: no self filter).
+    laserscan_common::SelfFilter self_filter;
+    /// The same, posed in the sensor's frame for `scan` (each scan carries its own poses: with
+    /// sync_window a newer scan may arrive before an older one is merged).
+    laserscan_common::SelfFilter scan_self_filter;
     sensor_msgs::LaserScan::ConstPtr pending;  ///< waiting for its transform
     std::string pending_frame;                 ///< its frame id as tf2 wants it
     ros::WallTime pending_since;
@@ -77,10 +82,15 @@ private:
   /// output_T_sensor at stamp; false (with the reason in error) when tf2 has none or it is not finite.
   bool tryTransform(const std::string& frame, const ros::Time& stamp, Eigen::Isometry3d& output_T_sensor,
                     std::string& error);
+  /// Poses a copy of the source's self filter (if any) in the scan's frame into `posed`: at the
+  /// scan's stamp, or at its middle beam's time when the source deskews. false (with the reason)
+  /// while a shape frame's transform is not there: the scan waits for it as for its own.
+  bool poseSelfFilter(std::size_t source, const sensor_msgs::LaserScan& msg, const std::string& frame,
+                      laserscan_common::SelfFilter& posed, std::string& error);
   /// Keeps msg with the mount it was transformed with, unless an older scan than the one kept;
   /// with publish_rate 0 publishes (now or when the scans due at its stamp are in: outputs_).
-  void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg,
-              const Eigen::Isometry3d& output_T_sensor);
+  void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg, const Eigen::Isometry3d& output_T_sensor,
+              laserscan_common::SelfFilter self_filter);
   /// publish_rate > 0: publishes at the newest data unless scans of the newest stamp are still
   /// due within sync_window (then the tick waits for them, never past the window's end).
   void publishTick(bool at_deadline);
@@ -122,11 +132,13 @@ private:
   std::vector<SourceStatus> status_;
   MergedScan merged_;
   ros::Time last_published_;  ///< zero: nothing published on this timeline yet
-  /// A source's scan as it goes into the merge: the message and its mount at the scan's stamp.
+  /// A source's scan as it goes into the merge: the message, its mount at the scan's stamp and
+  /// the robot's parts posed for it.
   struct ScanInMerge
   {
     sensor_msgs::LaserScan::ConstPtr msg;
     Eigen::Isometry3d output_T_sensor;
+    laserscan_common::SelfFilter self_filter;
   };
   /// When an output may be published (sources sharing stamps wait for each other, sync_window).
   std::unique_ptr<SyncedOutputs<ScanInMerge>> outputs_;

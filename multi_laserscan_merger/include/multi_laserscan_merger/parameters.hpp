@@ -62,6 +62,7 @@ struct SourceParams
   /// invalid reading (false).
   bool too_close_is_obstacle = true;
   bool footprint_filter = true;  ///< false: the output footprint does not apply to this source
+  bool self_filter = true;       ///< false: the merger's self_filter block does not apply to this source
   /// m; > 0: this source only adds what the other sources do not explain (for sonar arcs, whose
   /// cone widening draws false obstacles). It is fused after all sources without this option;
   /// its whole scan is dropped when any of its returns lies within this distance of a return of

@@ -1,0 +1,202 @@
+// The self filter: the robot's own parts (arm links, a gripper, a carried load) as padded solids
+// fixed to tf frames, and the test whether a point lies inside one of them. ROS-free (C++17 +
+// Eigen); the shapes come from a URDF's collision elements (robot_shapes.hpp) and/or a node's
+// YAML, their poses from tf, looked up by the ROS glue at each message's stamp.
+// Shared by the depth converters (points inside are not projected) and the merger (returns
+// inside are dropped). Lengths in metres.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace laserscan_common
+{
+
+enum class ShapeKind : std::uint8_t
+{
+  kBox,       ///< half_extents: half sizes along the shape's x, y, z
+  kCylinder,  ///< axis along the shape's z; half_extents = (radius, radius, half length)
+  kSphere     ///< half_extents = (radius, radius, radius)
+};
+
+/// "box", "cylinder", "sphere".
+const char* shapeKindName(ShapeKind kind);
+
+/// One solid part of the robot, fixed to a tf frame.
+struct RobotShape
+{
+  std::string name;   ///< for messages: the URDF link (and collision index) or "shapes[i]"
+  std::string frame;  ///< tf frame the shape moves with
+  ShapeKind kind = ShapeKind::kBox;
+  Eigen::Vector3d half_extents = Eigen::Vector3d::Zero();    ///< m, see ShapeKind
+  Eigen::Isometry3d origin = Eigen::Isometry3d::Identity();  ///< the shape's centre and axes in `frame`
+  double padding = 0.0;  ///< m added to every half extent (and radius): the margin kept around the part
+
+  /// Throws ParameterError naming `parameter` (e.g. "self_filter/shapes[1]") if unusable.
+  void validate(const std::string& parameter) const;
+};
+
+/// An axis-aligned box (reference frame); empty when lo > hi.
+struct Bounds
+{
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Vector3f hi = Eigen::Vector3f::Constant(-std::numeric_limits<float>::max());
+
+  bool empty() const { return (lo.array() > hi.array()).any(); }
+  bool contains(float x, float y, float z) const
+  {
+    return (x >= lo.x()) & (x <= hi.x()) & (y >= lo.y()) & (y <= hi.y()) & (z >= lo.z()) & (z <= hi.z());
+  }
+  void extend(const Bounds& other)
+  {
+    lo = lo.cwiseMin(other.lo);
+    hi = hi.cwiseMax(other.hi);
+  }
+};
+
+/// One shape at its current pose, in the form the point test needs (float, reference -> shape).
+/// Every kind is one formula: |q| <= h per axis and radial_weight * (qx^2 + qy^2) +
+/// axial_weight * qz^2 <= radius2, where q is the point in the shape's frame; a box has both
+/// weights 0, a cylinder radial 1, a sphere both 1. One branch-free loop then vectorizes.
+struct PosedShape
+{
+  float r[9];  ///< rotation reference -> shape, row-major
+  float t[3];  ///< translation reference -> shape
+  float h[3];  ///< padded half extents
+  float radius2, radial_weight, axial_weight;
+  Bounds bounds;  ///< of the padded shape, in the reference frame
+};
+
+/// The test of one point against one posed shape (the whole filter is the OR over shapes).
+inline bool insidePosed(const PosedShape& s, float x, float y, float z)
+{
+  const float qx = s.r[0] * x + s.r[1] * y + s.r[2] * z + s.t[0];
+  const float qy = s.r[3] * x + s.r[4] * y + s.r[5] * z + s.t[1];
+  const float qz = s.r[6] * x + s.r[7] * y + s.r[8] * z + s.t[2];
+  const float round = s.radial_weight * (qx * qx + qy * qy) + s.axial_weight * (qz * qz);
+  return (std::abs(qx) <= s.h[0]) & (std::abs(qy) <= s.h[1]) & (std::abs(qz) <= s.h[2]) & (round <= s.radius2);
+}
+
+/// The shapes of one robot, their frames, and their poses for the message being filtered.
+/// Not thread-safe: each user (converter, merger source) keeps its own copy and sets the poses
+/// before each message.
+class SelfFilter
+{
+public:
+  SelfFilter() = default;
+  /// Validates every shape (ParameterError naming `parameter`[i]).
+  SelfFilter(std::vector<RobotShape> shapes, const std::string& parameter);
+
+  bool empty() const { return shapes_.empty(); }
+  const std::vector<RobotShape>& shapes() const { return shapes_; }
+  /// The distinct frames of the shapes, in first-use order: one tf lookup each per message.
+  const std::vector<std::string>& frames() const { return frames_; }
+
+  /// Where each frame of frames() is: reference <- frame, same order (std::invalid_argument if the
+  /// count differs). Computes the posed shapes and their bounding box.
+  void setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T_frame);
+
+  /// The padded shapes' bounding box in the reference frame at the poses last set: a point
+  /// outside it is outside every shape (the prefilter of the hot loops).
+  const Bounds& bounds() const { return bounds_; }
+  const std::vector<PosedShape>& posed() const { return posed_; }
+
+  /// True when the point (reference frame) lies inside or on a padded shape at the poses last set.
+  bool contains(float x, float y, float z) const
+  {
+    if (!bounds_.contains(x, y, z))
+      return false;
+    for (const PosedShape& s : posed_)
+      if (insidePosed(s, x, y, z))
+        return true;
+    return false;
+  }
+
+  /// For n points (structure of arrays): inside[i] = 1 if point i is inside a padded shape,
+  /// else left as it is; points with active[i] == 0 are not tested (active[i] is 0 or 1). Returns whether any point was
+  /// inside. Inline, so that a caller's vectorized (target_clones) function inlines it with its
+  /// own instruction set; per block of kMarkBlock points, a shape is tested only when one of the
+  /// block's active points lies in its bounding box.
+  inline bool markInside(std::size_t n, const float* xs, const float* ys, const float* zs, const std::int32_t* active,
+                         std::int32_t* inside) const;
+
+  /// Points per block of markInside.
+  static constexpr std::size_t kMarkBlock = 32;
+
+private:
+  std::vector<RobotShape> shapes_;
+  std::vector<std::string> frames_;
+  std::vector<std::size_t> frame_of_shape_;
+  std::vector<PosedShape> posed_;
+  Bounds bounds_;
+};
+
+/// markInside on one block of m points (m = kMarkBlock known at compile time for full blocks:
+/// the loops then have no remainder).
+__attribute__((always_inline)) inline std::int32_t markBlock(const std::vector<PosedShape>& shapes, std::size_t m,
+                                                             const float* bx, const float* by, const float* bz,
+                                                             const std::int32_t* ba, std::int32_t* bi)
+{
+  std::int32_t block_active = 0;
+  for (std::size_t i = 0; i < m; ++i)
+    block_active |= ba[i];
+  if (!block_active)
+    return 0;
+  std::int32_t any = 0;
+  for (const PosedShape& s : shapes)
+  {
+    // Locals, so that the compiler keeps them in registers across the vectorized loops.
+    const float lx = s.bounds.lo.x(), ly = s.bounds.lo.y(), lz = s.bounds.lo.z();
+    const float hx = s.bounds.hi.x(), hy = s.bounds.hi.y(), hz = s.bounds.hi.z();
+    std::int32_t in_box = 0;
+    for (std::size_t i = 0; i < m; ++i)
+    {
+      const float x = bx[i], y = by[i], z = bz[i];
+      in_box |= ba[i] & (x >= lx) & (x <= hx) & (y >= ly) & (y <= hy) & (z >= lz) & (z <= hz);
+    }
+    if (!in_box)
+      continue;
+    const float r0 = s.r[0], r1 = s.r[1], r2 = s.r[2], r3 = s.r[3], r4 = s.r[4], r5 = s.r[5];
+    const float r6 = s.r[6], r7 = s.r[7], r8 = s.r[8], t0 = s.t[0], t1 = s.t[1], t2 = s.t[2];
+    const float h0 = s.h[0], h1 = s.h[1], h2 = s.h[2];
+    const float radius2 = s.radius2, wr = s.radial_weight, wa = s.axial_weight;
+    for (std::size_t i = 0; i < m; ++i)
+    {
+      const float x = bx[i], y = by[i], z = bz[i];
+      const float qx = r0 * x + r1 * y + r2 * z + t0;
+      const float qy = r3 * x + r4 * y + r5 * z + t1;
+      const float qz = r6 * x + r7 * y + r8 * z + t2;
+      const float round = wr * (qx * qx + qy * qy) + wa * (qz * qz);
+      const std::int32_t h =
+        ba[i] & (std::abs(qx) <= h0) & (std::abs(qy) <= h1) & (std::abs(qz) <= h2) & (round <= radius2);
+      bi[i] |= h;
+      any |= h;
+    }
+  }
+  return any;
+}
+
+__attribute__((always_inline)) inline bool SelfFilter::markInside(std::size_t n, const float* xs, const float* ys,
+                                                                  const float* zs, const std::int32_t* active,
+                                                                  std::int32_t* inside) const
+{
+  // Points come in runs that lie close together (a row of a depth image): per block of
+  // kMarkBlock points, a shape is tested only when one of the block's active points lies in its
+  // bounding box, so that a point near one link is tested against that link, not all of them.
+  // Every loop is branch-free and vectorizes (integer OR reductions only).
+  std::int32_t any = 0;
+  std::size_t b0 = 0;
+  for (; b0 + kMarkBlock <= n; b0 += kMarkBlock)
+    any |= markBlock(posed_, kMarkBlock, xs + b0, ys + b0, zs + b0, active + b0, inside + b0);
+  if (b0 < n)
+    any |= markBlock(posed_, n - b0, xs + b0, ys + b0, zs + b0, active + b0, inside + b0);
+  return any != 0;
+}
+
+}  // namespace laserscan_common

@@ -1,0 +1,47 @@
+// The ROS side of the self filter, shared by the converters and the merger: the `self_filter`
+// parameter block (strict: a wrong type or an unknown key is a ParameterError naming it), the
+// shapes it describes (robot_description's collision elements and/or listed shapes), and the tf
+// lookup of their frames at a message's stamp (one per frame and message, never per point).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <ros/ros.h>
+#include <tf2/buffer_core.h>
+
+#include "laserscan_common/self_filter.hpp"
+
+namespace laserscan_common
+{
+
+/// The `self_filter` block of a node's private parameters (every key optional).
+struct SelfFilterParams
+{
+  bool use_robot_description = false;  ///< shapes from the URDF in the `robot_description` parameter
+  std::vector<std::string> links;      ///< links of the description to take; empty: every link with a collision
+  double padding = 0.02;  ///< m, margin around every shape of the description (and listed shapes without their own)
+  std::vector<RobotShape> shapes;  ///< listed shapes (parts the description lacks, e.g. a carried load)
+
+  bool enabled() const { return use_robot_description || !shapes.empty(); }
+  /// Throws ParameterError ("self_filter/<key>").
+  void validate() const;
+};
+
+/// Reads `<private_nh>/<key>` (absent: the filter is off). Throws ParameterError.
+SelfFilterParams readSelfFilterParams(const ros::NodeHandle& private_nh, const std::string& key = "self_filter");
+
+/// The filter the parameters describe: the description's shapes (read from `robot_description`
+/// in nh's namespace; package:// meshes through roslib), then the listed ones. Throws
+/// ParameterError for a missing or unusable description. Warnings (meshes that could not be
+/// read) go to `warnings`.
+SelfFilter makeSelfFilter(const SelfFilterParams& params, const ros::NodeHandle& nh,
+                          std::vector<std::string>& warnings);
+
+/// Sets the poses of the filter's frames in `target` at `stamp` (one lookup per frame). Throws
+/// tf2::TransformException (naming the frames) when one is not there: a node waits for them as
+/// for its sensor's own transform (its tf message filter has the shape frames as targets too).
+void setFramePosesAt(const tf2::BufferCore& buffer, const std::string& target, const ros::Time& stamp,
+                     SelfFilter& filter);
+
+}  // namespace laserscan_common

@@ -1,0 +1,199 @@
+#include "laserscan_common/self_filter_parameters.hpp"
+
+#include <cmath>
+#include <set>
+
+#include <ros/package.h>
+#include <tf2/exceptions.h>
+
+#include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/parameter_error.hpp"
+#include "laserscan_common/robot_shapes.hpp"
+
+namespace laserscan_common
+{
+namespace
+{
+using XmlRpc::XmlRpcValue;
+
+bool isNumber(const XmlRpcValue& v)
+{
+  return v.getType() == XmlRpcValue::TypeDouble || v.getType() == XmlRpcValue::TypeInt;
+}
+
+double number(XmlRpcValue& v, const std::string& name)
+{
+  if (!isNumber(v))
+    throw ParameterError(name, "must be a number");
+  return v.getType() == XmlRpcValue::TypeInt ? static_cast<double>(static_cast<int>(v)) : static_cast<double>(v);
+}
+
+std::string text(XmlRpcValue& v, const std::string& name)
+{
+  if (v.getType() != XmlRpcValue::TypeString)
+    throw ParameterError(name, "must be a string");
+  return static_cast<std::string>(v);
+}
+
+std::vector<double> numbers(XmlRpcValue& v, const std::string& name, int count)
+{
+  if (v.getType() != XmlRpcValue::TypeArray || v.size() != count)
+    throw ParameterError(name, "must be a list of " + std::to_string(count) + " numbers");
+  std::vector<double> out;
+  for (int i = 0; i < count; ++i)
+    out.push_back(number(v[i], name));
+  return out;
+}
+
+void onlyKeys(XmlRpcValue& v, const std::string& name, const std::set<std::string>& allowed)
+{
+  for (auto it = v.begin(); it != v.end(); ++it)
+    if (allowed.count(it->first) == 0)
+      throw ParameterError(name + "/" + it->first, "unknown key");
+}
+
+// {name, frame, type: box|cylinder|sphere, size: [x, y, z] (box), radius, length (cylinder),
+//  radius (sphere), origin: [x, y, z, roll, pitch, yaw], padding}
+RobotShape readShape(XmlRpcValue& v, const std::string& name, double default_padding)
+{
+  if (v.getType() != XmlRpcValue::TypeStruct)
+    throw ParameterError(name, "must be a dictionary (frame, type, sizes, origin, padding)");
+  onlyKeys(v, name, { "name", "frame", "type", "size", "radius", "length", "origin", "padding" });
+  RobotShape s;
+  s.name = v.hasMember("name") ? text(v["name"], name + "/name") : name;
+  if (!v.hasMember("frame"))
+    throw ParameterError(name + "/frame", "is required (the tf frame the shape moves with)");
+  s.frame = text(v["frame"], name + "/frame");
+  const std::string type = v.hasMember("type") ? text(v["type"], name + "/type") : "";
+  auto need = [&](const char* key, bool wanted) {
+    if (v.hasMember(key) != wanted)
+      throw ParameterError(name + "/" + key, std::string(wanted ? "is required" : "is not used") + " for a " + type);
+  };
+  if (type == "box")
+  {
+    s.kind = ShapeKind::kBox;
+    need("size", true), need("radius", false), need("length", false);
+    const std::vector<double> d = numbers(v["size"], name + "/size", 3);
+    s.half_extents = 0.5 * Eigen::Vector3d(d[0], d[1], d[2]);
+  }
+  else if (type == "cylinder")
+  {
+    s.kind = ShapeKind::kCylinder;
+    need("size", false), need("radius", true), need("length", true);
+    const double r = number(v["radius"], name + "/radius");
+    s.half_extents = Eigen::Vector3d(r, r, 0.5 * number(v["length"], name + "/length"));
+  }
+  else if (type == "sphere")
+  {
+    s.kind = ShapeKind::kSphere;
+    need("size", false), need("radius", true), need("length", false);
+    const double r = number(v["radius"], name + "/radius");
+    s.half_extents = Eigen::Vector3d(r, r, r);
+  }
+  else
+    throw ParameterError(name + "/type", "must be box, cylinder or sphere");
+  if (v.hasMember("origin"))
+  {
+    const std::vector<double> o = numbers(v["origin"], name + "/origin", 6);
+    s.origin = Eigen::Translation3d(o[0], o[1], o[2]) * Eigen::AngleAxisd(o[5], Eigen::Vector3d::UnitZ()) *
+               Eigen::AngleAxisd(o[4], Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(o[3], Eigen::Vector3d::UnitX());
+  }
+  s.padding = v.hasMember("padding") ? number(v["padding"], name + "/padding") : default_padding;
+  s.validate(name);
+  return s;
+}
+
+std::string resolveMesh(const std::string& uri)
+{
+  const std::string scheme = "package://";
+  if (uri.compare(0, scheme.size(), scheme) != 0)
+    return resolveFileUri(uri);
+  const std::size_t slash = uri.find('/', scheme.size());
+  if (slash == std::string::npos)
+    return "";
+  const std::string package = ros::package::getPath(uri.substr(scheme.size(), slash - scheme.size()));
+  return package.empty() ? "" : package + uri.substr(slash);
+}
+}  // namespace
+
+void SelfFilterParams::validate() const
+{
+  if (!std::isfinite(padding) || padding < 0.0)
+    throw ParameterError("self_filter/padding", "must be finite and >= 0 (m)");
+  if (!links.empty() && !use_robot_description)
+    throw ParameterError("self_filter/links", "needs use_robot_description: true (the links are the description's)");
+  for (std::size_t i = 0; i < shapes.size(); ++i)
+    shapes[i].validate("self_filter/shapes[" + std::to_string(i) + "]");
+}
+
+SelfFilterParams readSelfFilterParams(const ros::NodeHandle& private_nh, const std::string& key)
+{
+  SelfFilterParams p;
+  XmlRpcValue block;
+  if (!private_nh.getParam(key, block))
+    return p;
+  if (block.getType() != XmlRpcValue::TypeStruct)
+    throw ParameterError(key, "must be a dictionary (use_robot_description, links, padding, shapes)");
+  onlyKeys(block, key, { "use_robot_description", "links", "padding", "shapes" });
+  if (block.hasMember("use_robot_description"))
+  {
+    if (block["use_robot_description"].getType() != XmlRpcValue::TypeBoolean)
+      throw ParameterError(key + "/use_robot_description", "must be a boolean");
+    p.use_robot_description = static_cast<bool>(block["use_robot_description"]);
+  }
+  if (block.hasMember("padding"))
+    p.padding = number(block["padding"], key + "/padding");
+  if (block.hasMember("links"))
+  {
+    XmlRpcValue& links = block["links"];
+    if (links.getType() != XmlRpcValue::TypeArray)
+      throw ParameterError(key + "/links", "must be a list of link names");
+    for (int i = 0; i < links.size(); ++i)
+      p.links.push_back(text(links[i], key + "/links[" + std::to_string(i) + "]"));
+  }
+  if (block.hasMember("shapes"))
+  {
+    XmlRpcValue& shapes = block["shapes"];
+    if (shapes.getType() != XmlRpcValue::TypeArray)
+      throw ParameterError(key + "/shapes", "must be a list of shapes");
+    for (int i = 0; i < shapes.size(); ++i)
+      p.shapes.push_back(readShape(shapes[i], key + "/shapes[" + std::to_string(i) + "]", p.padding));
+  }
+  p.validate();
+  return p;
+}
+
+SelfFilter makeSelfFilter(const SelfFilterParams& params, const ros::NodeHandle& nh, std::vector<std::string>& warnings)
+{
+  std::vector<RobotShape> shapes;
+  if (params.use_robot_description)
+  {
+    std::string urdf;
+    if (nh.hasParam("robot_description") && !nh.getParam("robot_description", urdf))
+      throw ParameterError("robot_description", "must be a string (the robot's URDF)");
+    shapes = shapesFromUrdf(urdf, params.links, params.padding, resolveMesh, warnings);
+  }
+  shapes.insert(shapes.end(), params.shapes.begin(), params.shapes.end());
+  return SelfFilter(std::move(shapes), "self_filter");
+}
+
+void setFramePosesAt(const tf2::BufferCore& buffer, const std::string& target, const ros::Time& stamp,
+                     SelfFilter& filter)
+{
+  std::vector<Eigen::Isometry3d> poses;
+  for (const std::string& frame : filter.frames())
+  {
+    const geometry_msgs::TransformStamped t = buffer.lookupTransform(target, frame, stamp);
+    if (!transformIsFinite(t.transform))
+      throw tf2::TransformException("self filter: the transform '" + frame + "' -> '" + target + "' is not finite");
+    const auto& q = t.transform.rotation;
+    const auto& p = t.transform.translation;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = Eigen::Quaterniond(q.w, q.x, q.y, q.z).normalized().toRotationMatrix();
+    pose.translation() = Eigen::Vector3d(p.x, p.y, p.z);
+    poses.push_back(pose);
+  }
+  filter.setFramePoses(poses);
+}
+
+}  // namespace laserscan_common

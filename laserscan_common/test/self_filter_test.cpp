@@ -1,0 +1,384 @@
+// The self filter's core: every shape kind against analytic points (inside, outside, on the
+// padded border, in rotated and moved frames), the bounding-box prefilter, the chunk test the
+// converters' hot loop uses, and the shapes read from URDF strings (box, cylinder, sphere,
+// meshes from STL/OBJ files, errors for missing or unusable descriptions).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "laserscan_common/parameter_error.hpp"
+#include "laserscan_common/robot_shapes.hpp"
+#include "laserscan_common/self_filter.hpp"
+
+namespace lc = laserscan_common;
+using Eigen::Isometry3d;
+using Eigen::Vector3d;
+
+namespace
+{
+constexpr double kPi = 3.14159265358979323846;
+// Border tests: a millimetre inside / outside the padded surface (the test runs in float).
+constexpr double kEps = 1e-3;
+
+lc::RobotShape shape(lc::ShapeKind kind, const Vector3d& half, double padding, const std::string& frame = "link")
+{
+  lc::RobotShape s;
+  s.name = "test";
+  s.frame = frame;
+  s.kind = kind;
+  s.half_extents = half;
+  s.padding = padding;
+  return s;
+}
+
+lc::SelfFilter posed(const lc::RobotShape& s, const Isometry3d& reference_T_frame)
+{
+  lc::SelfFilter f({ s }, "shapes");
+  f.setFramePoses({ reference_T_frame });
+  return f;
+}
+
+bool has(const lc::SelfFilter& f, const Vector3d& p)
+{
+  return f.contains(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+}
+
+Isometry3d pose(const Vector3d& t, double roll, double pitch, double yaw)
+{
+  Isometry3d m = Isometry3d::Identity();
+  m.translation() = t;
+  m.linear() = (Eigen::AngleAxisd(yaw, Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Vector3d::UnitY()) *
+                Eigen::AngleAxisd(roll, Vector3d::UnitX()))
+                 .toRotationMatrix();
+  return m;
+}
+}  // namespace
+
+TEST(SelfFilterShapes, BoxInsideOutsideAndOnThePaddedBorder)
+{
+  // A 0.4 x 0.2 x 0.1 box, padding 0.05: padded half extents 0.25, 0.15, 0.1.
+  const auto f = posed(shape(lc::ShapeKind::kBox, { 0.2, 0.1, 0.05 }, 0.05), Isometry3d::Identity());
+  EXPECT_TRUE(has(f, { 0, 0, 0 }));
+  EXPECT_TRUE(has(f, { 0.22, 0.0, 0.0 }));  // in the padding only
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    const double h[3] = { 0.25, 0.15, 0.1 };
+    for (double sign : { -1.0, 1.0 })
+    {
+      Vector3d in = Vector3d::Zero(), out = Vector3d::Zero();
+      in(axis) = sign * (h[axis] - kEps);
+      out(axis) = sign * (h[axis] + kEps);
+      EXPECT_TRUE(has(f, in)) << "axis " << axis << " sign " << sign;
+      EXPECT_FALSE(has(f, out)) << "axis " << axis << " sign " << sign;
+    }
+  }
+  // A corner of the padded box is inside (padding enlarges the box, it does not round it).
+  EXPECT_TRUE(has(f, { 0.25 - kEps, 0.15 - kEps, 0.1 - kEps }));
+  EXPECT_FALSE(has(f, { 0.25 + kEps, 0.15 - kEps, 0.1 - kEps }));
+}
+
+TEST(SelfFilterShapes, BoxInARotatedMovedFrameWithARotatedOrigin)
+{
+  // Frame at (1, 2, 0.5) turned 90 degrees about z; the box's origin within it is 0.3 along the
+  // frame's x and turned 90 degrees about x (its y along the frame's z).
+  lc::RobotShape s = shape(lc::ShapeKind::kBox, { 0.2, 0.1, 0.05 }, 0.0);
+  s.origin = pose({ 0.3, 0, 0 }, kPi / 2, 0, 0);
+  const auto f = posed(s, pose({ 1, 2, 0.5 }, 0, 0, kPi / 2));
+  // Centre: the frame's x is the reference's y.
+  const Vector3d c(1.0, 2.3, 0.5);
+  EXPECT_TRUE(has(f, c));
+  // The box's x (half 0.2) lies along reference y, its y (half 0.1) along reference z, its z
+  // (half 0.05) along reference -x.
+  EXPECT_TRUE(has(f, c + Vector3d(0, 0.2 - kEps, 0)));
+  EXPECT_FALSE(has(f, c + Vector3d(0, 0.2 + kEps, 0)));
+  EXPECT_TRUE(has(f, c + Vector3d(0, 0, 0.1 - kEps)));
+  EXPECT_FALSE(has(f, c + Vector3d(0, 0, 0.1 + kEps)));
+  EXPECT_TRUE(has(f, c + Vector3d(0.05 - kEps, 0, 0)));
+  EXPECT_FALSE(has(f, c + Vector3d(0.05 + kEps, 0, 0)));
+  // Unrotated, (0.15, 0, 0) from the centre would be inside; here it is not.
+  EXPECT_FALSE(has(f, c + Vector3d(0.15, 0, 0)));
+  // The bounding box is exact for a box turned by right angles.
+  EXPECT_NEAR(f.bounds().lo.x(), 1.0 - 0.05, 1e-6);
+  EXPECT_NEAR(f.bounds().hi.y(), 2.3 + 0.2, 1e-6);
+  EXPECT_NEAR(f.bounds().hi.z(), 0.5 + 0.1, 1e-6);
+}
+
+TEST(SelfFilterShapes, CylinderRadiusAndLengthWithPadding)
+{
+  // Radius 0.05, length 0.4, padding 0.02; axis along the frame's x (pitch 90 degrees).
+  lc::RobotShape s = shape(lc::ShapeKind::kCylinder, { 0.05, 0.05, 0.2 }, 0.02);
+  s.origin = pose({ 0, 0, 0 }, 0, kPi / 2, 0);
+  const auto f = posed(s, pose({ 0.5, 0, 1.0 }, 0, 0, 0));
+  const Vector3d c(0.5, 0, 1.0);
+  EXPECT_TRUE(has(f, c + Vector3d(0.22 - kEps, 0, 0)));  // along the axis
+  EXPECT_FALSE(has(f, c + Vector3d(0.22 + kEps, 0, 0)));
+  EXPECT_TRUE(has(f, c + Vector3d(0, 0.07 - kEps, 0)));  // radially
+  EXPECT_FALSE(has(f, c + Vector3d(0, 0.07 + kEps, 0)));
+  const double d = 0.07 / std::sqrt(2.0);  // radially, at 45 degrees
+  EXPECT_TRUE(has(f, c + Vector3d(0.1, d - kEps, d - kEps)));
+  EXPECT_FALSE(has(f, c + Vector3d(0.1, d + kEps, d + kEps)));  // inside its bounding box, outside the round
+}
+
+TEST(SelfFilterShapes, SphereRadiusWithPadding)
+{
+  const auto f = posed(shape(lc::ShapeKind::kSphere, { 0.1, 0.1, 0.1 }, 0.03), pose({ 0, 0, 1 }, 0.3, 0.2, 0.1));
+  const Vector3d dir = Vector3d(1, -2, 0.5).normalized();
+  EXPECT_TRUE(has(f, Vector3d(0, 0, 1) + (0.13 - kEps) * dir));
+  EXPECT_FALSE(has(f, Vector3d(0, 0, 1) + (0.13 + kEps) * dir));
+  EXPECT_FALSE(has(f, { 0.12, 0.12, 1.0 }));  // a corner of its bounding box
+}
+
+TEST(SelfFilterShapes, PosesFollowTheFrameAndFramesAreSharedByShapes)
+{
+  lc::SelfFilter f({ shape(lc::ShapeKind::kSphere, { 0.1, 0.1, 0.1 }, 0.0, "arm"),
+                     shape(lc::ShapeKind::kBox, { 0.1, 0.1, 0.1 }, 0.0, "base"),
+                     shape(lc::ShapeKind::kSphere, { 0.05, 0.05, 0.05 }, 0.0, "arm") },
+                   "shapes");
+  ASSERT_EQ(f.frames(), (std::vector<std::string>{ "arm", "base" }));
+  f.setFramePoses({ pose({ 1, 0, 0 }, 0, 0, 0), Isometry3d::Identity() });
+  EXPECT_TRUE(has(f, { 1.0, 0, 0 }));
+  EXPECT_FALSE(has(f, { 0.0, 1.0, 0 }));
+  f.setFramePoses({ pose({ 0, 1, 0 }, 0, 0, 0), Isometry3d::Identity() });  // the arm moved
+  EXPECT_FALSE(has(f, { 1.0, 0, 0 }));
+  EXPECT_TRUE(has(f, { 0.0, 1.0, 0 }));
+  EXPECT_TRUE(has(f, { 0.0, 0.0, 0 }));  // the base stayed
+  EXPECT_THROW(f.setFramePoses({ Isometry3d::Identity() }), std::invalid_argument);
+}
+
+TEST(SelfFilterShapes, ChunkTestAgreesWithThePointTestAndSkipsInactivePoints)
+{
+  // Six links of an arm at arbitrary poses; random points around them.
+  std::vector<lc::RobotShape> shapes;
+  for (int i = 0; i < 6; ++i)
+  {
+    auto kind = static_cast<lc::ShapeKind>(i % 3);
+    shapes.push_back(shape(kind, { 0.05 + 0.01 * i, 0.06, 0.15 }, 0.02, "link" + std::to_string(i)));
+  }
+  lc::SelfFilter f(shapes, "shapes");
+  std::vector<Isometry3d> poses;
+  for (int i = 0; i < 6; ++i)
+    poses.push_back(pose({ 0.4 + 0.1 * i, 0.05 * i, 0.5 + 0.1 * i }, 0.3 * i, 0.5 - 0.2 * i, 0.7 * i));
+  f.setFramePoses(poses);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-0.2f, 1.4f);
+  const std::size_t n = 4096;
+  std::vector<float> xs(n), ys(n), zs(n);
+  std::vector<std::int32_t> active(n), inside(n, 0);
+  std::size_t expected_inside = 0;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    xs[i] = u(rng), ys[i] = u(rng) * 0.5f, zs[i] = u(rng);
+    active[i] = i % 5 != 0;
+  }
+  EXPECT_TRUE(f.markInside(n, xs.data(), ys.data(), zs.data(), active.data(), inside.data()));
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const bool want = active[i] && f.contains(xs[i], ys[i], zs[i]);
+    expected_inside += want ? 1 : 0;
+    EXPECT_EQ(inside[i] != 0, want) << i;
+    if (f.contains(xs[i], ys[i], zs[i]))
+    {
+      EXPECT_TRUE(f.bounds().contains(xs[i], ys[i], zs[i]));
+    }
+  }
+  EXPECT_GT(expected_inside, 20u);  // the sample does hit the shapes
+  EXPECT_LT(expected_inside, n / 2);
+}
+
+TEST(SelfFilterShapes, BadShapesNameThemselves)
+{
+  auto error_of = [](const lc::RobotShape& s) {
+    try
+    {
+      lc::SelfFilter f({ s }, "self_filter/shapes");
+    }
+    catch (const lc::ParameterError& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error_of(shape(lc::ShapeKind::kBox, { 0.1, 0.0, 0.1 }, 0.0)).find("self_filter/shapes[0]"),
+            std::string::npos);
+  EXPECT_NE(error_of(shape(lc::ShapeKind::kBox, { 0.1, 0.1, 0.1 }, -0.01)).find("padding"), std::string::npos);
+  EXPECT_NE(error_of(shape(lc::ShapeKind::kSphere, { 0.1, 0.1, 0.1 }, 0.0, "")).find("frame"), std::string::npos);
+  EXPECT_NE(error_of(shape(lc::ShapeKind::kSphere, { 0.1, 0.1, 0.1 }, 0.0, "/arm")).find("leading slash"),
+            std::string::npos);
+  EXPECT_EQ(error_of(shape(lc::ShapeKind::kSphere, { 0.1, 0.1, 0.1 }, 0.0)), "");
+}
+
+// ---- URDF ----
+
+namespace
+{
+std::string robot(const std::string& links)
+{
+  return "<?xml version=\"1.0\"?><robot name=\"r\">" + links + "</robot>";
+}
+
+std::string urdfLink(const std::string& name, const std::string& geometry, const std::string& origin = "")
+{
+  return "<link name=\"" + name + "\"><collision>" + origin + "<geometry>" + geometry +
+         "</geometry></collision></link>";
+}
+
+std::string joint(const std::string& parent, const std::string& child)
+{
+  return "<joint name=\"" + child + "_joint\" type=\"fixed\"><parent link=\"" + parent + "\"/><child link=\"" + child +
+         "\"/></joint>";
+}
+
+std::string parameterOf(const std::function<void()>& f)
+{
+  try
+  {
+    f();
+  }
+  catch (const lc::ParameterError& e)
+  {
+    return e.parameter() + ": " + e.reason();
+  }
+  return "";
+}
+
+std::string tempPath(const std::string& name)
+{
+  return ::testing::TempDir() + "/self_filter_test_" + name;
+}
+
+void writeBinaryStl(const std::string& path, const std::vector<Eigen::Vector3f>& vertices)
+{
+  std::ofstream out(path, std::ios::binary);
+  const std::string header(80, ' ');
+  out.write(header.data(), 80);
+  const std::uint32_t count = static_cast<std::uint32_t>(vertices.size() / 3);
+  out.write(reinterpret_cast<const char*>(&count), 4);
+  for (std::size_t t = 0; t < count; ++t)
+  {
+    const float normal[3] = { 0, 0, 1 };
+    out.write(reinterpret_cast<const char*>(normal), 12);
+    for (int v = 0; v < 3; ++v)
+      out.write(reinterpret_cast<const char*>(vertices[3 * t + v].data()), 12);
+    const std::uint16_t attributes = 0;
+    out.write(reinterpret_cast<const char*>(&attributes), 2);
+  }
+}
+}  // namespace
+
+TEST(SelfFilterUrdf, BoxCylinderSphereWithOriginsAndPadding)
+{
+  const std::string urdf = robot(urdfLink("base_link", "<box size=\"0.6 0.4 0.2\"/>", "<origin xyz=\"0 0 0.1\"/>") +
+                                 joint("base_link", "upper_arm") +
+                                 urdfLink("upper_arm", "<cylinder radius=\"0.05\" length=\"0.4\"/>",
+                                          "<origin xyz=\"0.2 0 0\" rpy=\"0 1.5707963 0\"/>") +
+                                 joint("upper_arm", "wrist") + urdfLink("wrist", "<sphere radius=\"0.04\"/>") +
+                                 joint("wrist", "no_collision") + "<link name=\"no_collision\"/>");
+  std::vector<std::string> warnings;
+  const auto shapes = lc::shapesFromUrdf(urdf, {}, 0.01, lc::resolveFileUri, warnings);
+  EXPECT_TRUE(warnings.empty());
+  ASSERT_EQ(shapes.size(), 3u);  // sorted by link name; the link without collision is left out
+  EXPECT_EQ(shapes[0].frame, "base_link");
+  EXPECT_EQ(shapes[0].kind, lc::ShapeKind::kBox);
+  EXPECT_TRUE(shapes[0].half_extents.isApprox(Vector3d(0.3, 0.2, 0.1)));
+  EXPECT_NEAR(shapes[0].origin.translation().z(), 0.1, 1e-12);
+  EXPECT_EQ(shapes[1].frame, "upper_arm");
+  EXPECT_EQ(shapes[1].kind, lc::ShapeKind::kCylinder);
+  EXPECT_TRUE(shapes[1].half_extents.isApprox(Vector3d(0.05, 0.05, 0.2)));
+  EXPECT_EQ(shapes[2].kind, lc::ShapeKind::kSphere);
+  EXPECT_DOUBLE_EQ(shapes[2].padding, 0.01);
+
+  // The cylinder lies along the link's x (pitch 90 degrees), from 0 to 0.4 m, padded by 0.01.
+  lc::SelfFilter f({ shapes[1] }, "self_filter");
+  f.setFramePoses({ Isometry3d::Identity() });
+  EXPECT_TRUE(has(f, { 0.41 - kEps, 0, 0 }));
+  EXPECT_FALSE(has(f, { 0.41 + kEps, 0, 0 }));
+  EXPECT_TRUE(has(f, { 0.2, 0, 0.06 - kEps }));
+  EXPECT_FALSE(has(f, { 0.2, 0, 0.06 + kEps }));
+
+  // Only the listed links.
+  const auto some = lc::shapesFromUrdf(urdf, { "wrist" }, 0.0, lc::resolveFileUri, warnings);
+  ASSERT_EQ(some.size(), 1u);
+  EXPECT_EQ(some[0].frame, "wrist");
+}
+
+TEST(SelfFilterUrdf, MeshesBecomeTheBoxOfTheirScaledVertices)
+{
+  // A binary STL spanning x 0..0.2, y -0.05..0.05, z 0..0.1, scale 2 along x.
+  const std::string stl = tempPath("part.stl");
+  writeBinaryStl(stl, { { 0, -0.05f, 0 }, { 0.2f, 0.05f, 0 }, { 0.1f, 0, 0.1f } });
+  // An ASCII STL and an OBJ of the same extent.
+  const std::string ascii = tempPath("part_ascii.stl");
+  std::ofstream(ascii) << "solid p\nfacet normal 0 0 1\nouter loop\nvertex 0 -0.05 0\nvertex 0.2 0.05 0\n"
+                          "vertex 0.1 0 0.1\nendloop\nendfacet\nendsolid p\n";
+  const std::string obj = tempPath("part.obj");
+  std::ofstream(obj) << "# part\nv 0 -0.05 0\nv 0.2 0.05 0\nv 0.1 0 0.1\nf 1 2 3\n";
+  for (const std::string& uri : { "file://" + stl, ascii, obj })
+  {
+    std::vector<std::string> warnings;
+    const auto shapes = lc::shapesFromUrdf(robot(urdfLink("tool", "<mesh filename=\"" + uri + "\" scale=\"2 1 1\"/>")),
+                                           {}, 0.0, lc::resolveFileUri, warnings);
+    ASSERT_EQ(shapes.size(), 1u) << uri;
+    EXPECT_TRUE(warnings.empty()) << uri;
+    EXPECT_EQ(shapes[0].kind, lc::ShapeKind::kBox);
+    EXPECT_TRUE(shapes[0].half_extents.isApprox(Vector3d(0.2, 0.05, 0.05), 1e-6)) << uri;
+    EXPECT_TRUE(shapes[0].origin.translation().isApprox(Vector3d(0.2, 0, 0.05), 1e-6)) << uri;
+  }
+}
+
+TEST(SelfFilterUrdf, AnUnreadableMeshIsABoxOfItsScaleWithAWarning)
+{
+  std::vector<std::string> warnings;
+  const auto shapes = lc::shapesFromUrdf(
+    robot(urdfLink("gripper", "<mesh filename=\"package://nowhere/meshes/gripper.dae\" scale=\"0.1 0.2 0.3\"/>")), {},
+    0.0, lc::resolveFileUri, warnings);
+  ASSERT_EQ(shapes.size(), 1u);
+  EXPECT_TRUE(shapes[0].half_extents.isApprox(Vector3d(0.05, 0.1, 0.15)));
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("gripper"), std::string::npos);
+  EXPECT_NE(warnings[0].find("package://nowhere/meshes/gripper.dae"), std::string::npos);
+
+  std::string why;
+  Eigen::Vector3d lo, hi;
+  EXPECT_FALSE(lc::meshBounds(tempPath("missing.stl"), lo, hi, why));
+  EXPECT_NE(why.find("cannot open"), std::string::npos);
+  const std::string empty = tempPath("empty.obj");
+  std::ofstream(empty) << "# nothing\n";
+  EXPECT_FALSE(lc::meshBounds(empty, lo, hi, why));
+  EXPECT_NE(why.find("no readable vertex"), std::string::npos);
+}
+
+TEST(SelfFilterUrdf, MissingOrUnusableDescriptionsAreClearErrors)
+{
+  std::vector<std::string> w;
+  const std::string good =
+    robot(urdfLink("arm", "<sphere radius=\"0.1\"/>") + joint("arm", "bare") + "<link name=\"bare\"/>");
+  EXPECT_EQ(parameterOf([&] {
+              lc::shapesFromUrdf("", {}, 0.0, lc::resolveFileUri, w);
+            }).rfind("robot_description: is empty", 0),
+            0u);
+  EXPECT_EQ(parameterOf([&] {
+              lc::shapesFromUrdf("<robot name=\"r\"><link", {}, 0.0, lc::resolveFileUri, w);
+            }).rfind("robot_description: is not a valid URDF", 0),
+            0u);
+  EXPECT_EQ(parameterOf([&] { lc::shapesFromUrdf(good, { "elbow" }, 0.0, lc::resolveFileUri, w); }),
+            "self_filter/links: link 'elbow' is not in the robot description");
+  EXPECT_EQ(parameterOf([&] { lc::shapesFromUrdf(good, { "bare" }, 0.0, lc::resolveFileUri, w); }),
+            "self_filter/links: link 'bare' has no collision element");
+  EXPECT_EQ(parameterOf([&] {
+              lc::shapesFromUrdf(robot("<link name=\"a\"/>"), {}, 0.0, lc::resolveFileUri, w);
+            }).rfind("robot_description: has no link with a collision element", 0),
+            0u);
+  EXPECT_EQ(parameterOf([&] { lc::shapesFromUrdf(good, {}, 0.0, lc::resolveFileUri, w); }), "");
+}
+
+int main(int argc, char** argv)
+{
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
