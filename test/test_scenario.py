@@ -198,6 +198,9 @@ def test_tf_chain_and_latched_static(short_bag):
     qs = [t.transform.rotation.y for m, _ in msgs[TOPICS["tf"]] for t in m.transforms
           if t.child_frame_id == sc.robot.cameras[0].tilt_frame]
     assert np.ptp(qs) > 0.05
+    # the arm's joints are on /tf, each link under its parent, base_link first
+    for link in sc.robot.arm.links:
+        assert (link.parent, link.name) in dynamic
     # every sensor frame is reachable from odom
     reach = {"odom"}
     for _ in range(3):
@@ -313,3 +316,57 @@ def test_cli_help_and_clear_errors(tmp_path):
                           "-o", str(tmp_path / "ok.bag")], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert Scenario.from_bag(str(tmp_path / "ok.bag")).duration == 1.5
+
+
+def _yaw_matrix(yaw):
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def test_arm_description_tf_and_boxes_agree():
+    """The shipped URDF is the arm's, and its collision boxes placed by the joints' /tf
+    transforms are the boxes the simulator casts rays on (what the self filter rebuilds)."""
+    import xml.etree.ElementTree as ET
+    from laserscan_toolbox.simulation.robot import Arm
+    arm = Arm()
+    with open(os.path.join(REPO, "config", "sim_robot", "robot.urdf")) as f:
+        text = f.read()
+    assert text == arm.urdf()
+    root = ET.fromstring(text)
+    collision = {}
+    for link in root.findall("link"):
+        c = link.find("collision")
+        if c is not None:
+            collision[link.get("name")] = (
+                np.array([float(v) for v in c.find("origin").get("xyz").split()]),
+                np.array([float(v) for v in c.find("geometry/box").get("size").split()]))
+    assert set(collision) == {lk.name for lk in arm.links}
+    for t in (0.0, 5.5, 8.0, 11.7, 14.0, 30.0):
+        pose = {"base_link": (np.eye(3), np.zeros(3))}
+        for link, parent, xyz, yaw in arm.joint_transforms(t):
+            r, p = pose[parent]
+            pose[link] = (r @ _yaw_matrix(yaw), p + r @ np.asarray(xyz))
+        centers, half, yaws = arm.boxes(t)
+        for k, lk in enumerate(arm.links):
+            r, p = pose[lk.name]
+            origin, size = collision[lk.name]
+            assert np.allclose(p + r @ origin, centers[k], atol=1e-9)
+            assert np.allclose(size / 2, half[k])
+            assert abs(math.remainder(math.atan2(r[1, 0], r[0, 0]) - yaws[k], 2 * math.pi)) < 1e-9
+
+
+def test_the_arm_enters_the_cameras_and_the_lidars_views():
+    """Ahead-left it is in the left camera's image (near pixels the world alone does not
+    have); lowered beside the robot it blocks beams of the front lidar; stowed neither."""
+    sc = Scenario.default(duration=20.0, camera_points=3000)
+    lidar = next(L for L in sc.robot.lidars if L.name == "lidar_front")
+    cam = next(C for C in sc.robot.cameras if C.name == "camera_left")
+    stowed, ahead, beside = 1.0, 8.5, 14.5
+    assert np.isinf(sc.arm_ranges(lidar, np.full(lidar.beams, stowed))).all()
+    hit = np.isfinite(sc.arm_ranges(lidar, np.full(lidar.beams, beside)))
+    assert 3 <= hit.sum() <= 20
+    r = sc.lidar_scan(lidar, beside, np.random.default_rng(0))
+    assert np.all(r[hit] < 1.0)       # the scan reads the arm there (noise, dropout aside)
+    near = [((sc.depth_image(cam, t, np.random.default_rng(0)) > 0)
+             & (sc.depth_image(cam, t, np.random.default_rng(0)) < 0.4)).sum() for t in (stowed, ahead)]
+    assert near[0] == 0 and near[1] > 100

@@ -72,6 +72,28 @@ def ray_boxes(origins, directions, centers, half, yaw=None):
     return np.where(hit, t, np.inf)
 
 
+def ray_own_boxes(origins, directions, centers, half, yaw):
+    """Distance from each ray to the closest of its own boxes (a swept lidar meets the moving
+    arm where it is at each beam's time).
+
+    origins, directions: (N, 3).  centers: (N, M, 3).  half: (M, 3).  yaw: (N, M).
+    Returns (N,): entry distance (exit distance from inside), +inf for a miss.
+    """
+    rel = np.asarray(origins, float)[:, None, :] - np.asarray(centers, float)
+    d = np.broadcast_to(np.asarray(directions, float)[:, None, :], rel.shape)
+    cs, sn = np.cos(yaw), np.sin(yaw)
+    rel = np.stack([cs * rel[..., 0] + sn * rel[..., 1], -sn * rel[..., 0] + cs * rel[..., 1],
+                    rel[..., 2]], axis=-1)
+    d = np.stack([cs * d[..., 0] + sn * d[..., 1], -sn * d[..., 0] + cs * d[..., 1], d[..., 2]], axis=-1)
+    h = np.asarray(half, float)[None, :, :]
+    tmin, tmax = _slab(-h, h, rel, d)
+    tnear = tmin.max(axis=-1)
+    tfar = tmax.min(axis=-1)
+    hit = (tnear <= tfar) & (tfar > EPS)
+    t = np.where(hit, np.where(tnear > EPS, tnear, tfar), np.inf)
+    return t.min(axis=1)
+
+
 def ray_aabb_exit(origins, directions, lo, hi):
     """Exit distance (N, M) of rays from axis-aligned boxes [lo, hi] (M, 3), or +inf."""
     o = np.asarray(origins, float)[:, None, :]

@@ -160,6 +160,120 @@ class OdomNoise:
     bias_w: float = 0.004            # rad/s heading drift while moving
 
 
+# ----- the arm -------------------------------------------------------------------------------
+@dataclass
+class ArmLink:
+    """One link of the arm: a box (``size``: full x, y, z) centred at ``center`` in the link's
+    frame, hung on its parent by a joint at ``joint_xyz`` in the parent's frame."""
+    name: str
+    parent: str
+    joint: str                              # revolute_z | prismatic_z
+    joint_xyz: Tuple[float, float, float]
+    size: Tuple[float, float, float]
+    center: Tuple[float, float, float]
+
+
+def _smooth(u):
+    return u * u * (3.0 - 2.0 * u)
+
+
+@dataclass
+class Arm:
+    """The paper's arm above the base, simplified to a SCARA-style chain (shoulder and elbow
+    turn about z, the gripper slides along z) so that every link stays level: the ray casts
+    handle yawed boxes, and the poses still reach into the cameras' views (ahead-left of the
+    robot) and the front lidar's plane (lowered beside the robot's left side).
+
+    ``keyframes``: (relative time s, shoulder rad, elbow rad, gripper lift m) repeated every
+    ``period`` seconds; between two keyframes the joints move smoothly (zero speed at each)."""
+    links: List[ArmLink] = field(default_factory=lambda: [
+        ArmLink("arm_upper_link", "base_link", "revolute_z", (0.05, 0.0, 0.62),
+                (0.46, 0.08, 0.08), (0.20, 0.0, 0.04)),
+        ArmLink("arm_forearm_link", "arm_upper_link", "revolute_z", (0.40, 0.0, 0.08),
+                (0.41, 0.06, 0.06), (0.175, 0.0, 0.03)),
+        ArmLink("arm_gripper_link", "arm_forearm_link", "prismatic_z", (0.35, 0.0, 0.0),
+                (0.07, 0.07, 0.20), (0.0, 0.0, -0.10)),
+    ])
+    period: float = 24.0
+    keyframes: List[Tuple[float, float, float, float]] = field(default_factory=lambda: [
+        (0.0, math.pi, math.pi, 0.20),     # stowed over the body
+        (4.0, math.pi, math.pi, 0.20),
+        (7.0, 0.05, 0.85, -0.05),          # ahead-left, in the left camera's view
+        (10.0, 0.05, 0.85, -0.05),
+        (13.0, 1.95, 0.45, -0.36),         # lowered beside the left side, in the front lidar's plane
+        (16.0, 1.95, 0.45, -0.36),
+        (20.0, math.pi, math.pi, 0.20),
+        (24.0, math.pi, math.pi, 0.20),
+    ])
+
+    def joints(self, rel_time):
+        """(shoulder, elbow, lift) arrays at scenario-relative time(s)."""
+        t = np.mod(np.asarray(rel_time, float), self.period)
+        k = np.array(self.keyframes, float)
+        i = np.clip(np.searchsorted(k[:, 0], t, side="right") - 1, 0, len(k) - 2)
+        u = _smooth(np.clip((t - k[i, 0]) / (k[i + 1, 0] - k[i, 0]), 0.0, 1.0))
+        q = k[i, 1:] + (k[i + 1, 1:] - k[i, 1:]) * u[..., None]
+        return q[..., 0], q[..., 1], q[..., 2]
+
+    def joint_transforms(self, rel_time):
+        """[(link, parent, xyz, yaw)] of each joint at one time (what /tf carries)."""
+        values = self.joints(float(rel_time))
+        out = []
+        for link, q in zip(self.links, values):
+            x, y, z = link.joint_xyz
+            if link.joint == "prismatic_z":
+                out.append((link.name, link.parent, (x, y, z + float(q)), 0.0))
+            else:
+                out.append((link.name, link.parent, (x, y, z), float(q)))
+        return out
+
+    def boxes(self, rel_time):
+        """Boxes of the links in base_link at time(s): centres (..., L, 3), half sizes (L, 3),
+        yaws (..., L)."""
+        shoulder, elbow, lift = (np.asarray(v, float) for v in self.joints(rel_time))
+        up, fore, grip = self.links
+        yaw1 = shoulder
+        yaw2 = shoulder + elbow
+        p1 = np.stack(np.broadcast_arrays(*up.joint_xyz), -1) * np.ones(np.shape(yaw1) + (1,))
+
+        def at(p, yaw, v):
+            c, s = np.cos(yaw), np.sin(yaw)
+            return np.stack([p[..., 0] + c * v[0] - s * v[1], p[..., 1] + s * v[0] + c * v[1],
+                             p[..., 2] + v[2]], -1)
+        p2 = at(p1, yaw1, fore.joint_xyz)
+        p3 = at(p2, yaw2, grip.joint_xyz)
+        p3 = p3 + np.stack([np.zeros_like(lift), np.zeros_like(lift), lift], -1)
+        centers = np.stack([at(p1, yaw1, up.center), at(p2, yaw2, fore.center),
+                            at(p3, yaw2, grip.center)], -2)
+        half = 0.5 * np.array([lk.size for lk in self.links], float)
+        return centers, half, np.stack([yaw1, yaw2, yaw2], -1)
+
+    def urdf(self):
+        """The robot description: base_link and the arm's links with box collisions (what
+        config/sim_robot/robot.urdf holds; test_scenario checks that they agree)."""
+        lines = ['<?xml version="1.0"?>',
+                 '<!-- Written by laserscan_toolbox.simulation.robot.Arm.urdf(): the simulated robot\'s arm',
+                 '     (config/sim_robot/*.yaml: self_filter/use_robot_description). Do not edit by hand. -->',
+                 '<robot name="sim_robot">', '  <link name="base_link"/>']
+        for lk in self.links:
+            size = " ".join("%g" % v for v in lk.size)
+            center = " ".join("%g" % v for v in lk.center)
+            lines += ['  <link name="%s">' % lk.name,
+                      '    <collision>', '      <origin xyz="%s" rpy="0 0 0"/>' % center,
+                      '      <geometry><box size="%s"/></geometry>' % size, '    </collision>',
+                      '  </link>']
+            kind, limits = (("prismatic", 'lower="-0.4" upper="0.2"') if lk.joint == "prismatic_z"
+                            else ("revolute", 'lower="-3.1416" upper="3.1416"'))
+            joint_name = lk.name.replace("_link", "_joint")
+            lines += ['  <joint name="%s" type="%s">' % (joint_name, kind),
+                      '    <parent link="%s"/>' % lk.parent, '    <child link="%s"/>' % lk.name,
+                      '    <origin xyz="%s" rpy="0 0 0"/>' % " ".join("%g" % v for v in lk.joint_xyz),
+                      '    <axis xyz="0 0 1"/>',
+                      '    <limit %s effort="100" velocity="2"/>' % limits, '  </joint>']
+        lines.append('</robot>')
+        return "\n".join(lines) + "\n"
+
+
 @dataclass
 class Robot:
     """Dimensions, sensors and motion limits of the simulated robot."""
@@ -174,6 +288,7 @@ class Robot:
     cameras: List[Camera] = field(default_factory=list)
     sonars: List[Sonar] = field(default_factory=list)
     odom: OdomNoise = field(default_factory=OdomNoise)
+    arm: Arm = field(default_factory=Arm)
 
     @property
     def body_half(self):
@@ -195,7 +310,13 @@ class Robot:
                 for x in d.pop("cameras", [])]
         sonars = [Sonar(**{**x, "xyz": tuple(x["xyz"])}) for x in d.pop("sonars", [])]
         odom = OdomNoise(**d.pop("odom", {}))
-        return cls(lidars=lidars, cameras=cams, sonars=sonars, odom=odom, **d)
+        arm = dict(d.pop("arm", {}))
+        if "links" in arm:
+            arm["links"] = [ArmLink(**{**x, "joint_xyz": tuple(x["joint_xyz"]), "size": tuple(x["size"]),
+                                       "center": tuple(x["center"])}) for x in arm["links"]]
+        if "keyframes" in arm:
+            arm["keyframes"] = [tuple(k) for k in arm["keyframes"]]
+        return cls(lidars=lidars, cameras=cams, sonars=sonars, odom=odom, arm=Arm(**arm), **d)
 
 
 def _clean(v):

@@ -223,6 +223,16 @@ class Scenario:
         d = np.column_stack([np.cos(a), np.sin(a), np.zeros(len(a))])
         return raycast.ray_boxes(o, d, self.robot.body_center[None], self.robot.body_half[None])[:, 0]
 
+    def arm_ranges(self, lidar, rel):
+        """Range (per beam, from the lidar) at which the arm blocks the beam measured at
+        relative time rel[i], +inf where it does not."""
+        angles, _ = self._lidar_angles(lidar)
+        a = angles + lidar.yaw
+        o = np.tile(np.asarray(lidar.xyz, float), (len(a), 1))
+        d = np.column_stack([np.cos(a), np.sin(a), np.zeros(len(a))])
+        centers, half, yaw = self.robot.arm.boxes(rel)
+        return raycast.ray_own_boxes(o, d, centers, half, yaw)
+
     def lidar_scan(self, lidar, rel_stamp, rng, body=None):
         """Noisy ranges (beams,) of one swept scan starting at rel_stamp (relative s)."""
         angles, _ = self._lidar_angles(lidar)
@@ -237,7 +247,7 @@ class Scenario:
         r = self.world.cast(o, d, rel)
         if body is None:
             body = self.body_ranges(lidar)
-        r = np.minimum(r, body)
+        r = np.minimum(r, np.minimum(body, self.arm_ranges(lidar, rel)))
         finite = np.isfinite(r)
         sigma = lidar.noise_sigma + lidar.noise_per_m * np.where(finite, r, 0.0)
         r = np.where(finite, r + rng.normal(0.0, 1.0, len(r)) * sigma, r)
@@ -276,6 +286,11 @@ class Scenario:
         solids["box_c"] = np.vstack([solids["box_c"], body_c])
         solids["box_h"] = np.vstack([solids["box_h"], self.robot.body_half])
         solids["box_yaw"] = np.append(solids["box_yaw"], yaw)
+        # And so is its arm, where it is at the frame's time.
+        arm_c, arm_h, arm_yaw = self.robot.arm.boxes(rel)
+        solids["box_c"] = np.vstack([solids["box_c"], np.array([x, y, 0.0]) + arm_c @ r_wb.T])
+        solids["box_h"] = np.vstack([solids["box_h"], arm_h])
+        solids["box_yaw"] = np.append(solids["box_yaw"], yaw + arm_yaw)
         depth = raycast.render_depth(solids, self.world.hole_arr, self.world.ceiling, r_wo, p_wo,
                                      cam.intrinsics(), cam.width, cam.height, cam.max_depth, rays)
         finite = np.isfinite(depth)
@@ -358,6 +373,8 @@ class Scenario:
                     for C in self.robot.cameras:
                         tfs.append(bagio.transform(s, FRAMES["base"], C.tilt_frame, C.xyz,
                                                    quat_from_matrix(C.tilt_rotation(odom_rel[k]))))
+                    for link, parent, xyz, yaw in self.robot.arm.joint_transforms(odom_rel[k]):
+                        tfs.append(bagio.transform(s, parent, link, xyz, quat_from_yaw(yaw)))
                     bag.write(TOPICS["tf"], bagio.tf_message(tfs), bt)
                     bag.write(TOPICS["odom"], self._odom_msg(Odometry, s, FRAMES["odom"],
                                                              (ox[k], oy[k], oyaw[k]), (ov[k], ow[k]), True), bt)
