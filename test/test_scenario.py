@@ -357,11 +357,11 @@ def test_arm_description_tf_and_boxes_agree():
 
 def test_the_arm_enters_the_cameras_and_the_lidars_views():
     """Ahead-left it is in the left camera's image (near pixels the world alone does not
-    have); lowered beside the robot it blocks beams of the front lidar; stowed neither."""
+    have); lowered beside the robot it blocks beams of the rear lidar; stowed neither."""
     sc = Scenario.default(duration=20.0, camera_points=3000)
-    lidar = next(L for L in sc.robot.lidars if L.name == "lidar_front")
+    lidar = next(L for L in sc.robot.lidars if L.name == "lidar_rear")
     cam = next(C for C in sc.robot.cameras if C.name == "camera_left")
-    stowed, ahead, beside = 1.0, 8.5, 14.5
+    stowed, ahead, beside = 1.0, 5.0, 10.0
     assert np.isinf(sc.arm_ranges(lidar, np.full(lidar.beams, stowed))).all()
     hit = np.isfinite(sc.arm_ranges(lidar, np.full(lidar.beams, beside)))
     assert 3 <= hit.sum() <= 20

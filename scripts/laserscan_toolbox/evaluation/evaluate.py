@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from . import metrics, report
+from . import metrics, report, self_filter_eval
 from ..ros.rosrun import CLOCK_HZ, REPO, RunError, Session
 from .analysis import (BASE_FRAME, THRESHOLDS, band_from_configs, check_thresholds, cpu_stats,
                        default_threshold_topics, glass_stats, ground_truth_stats, input_stats,
@@ -24,6 +24,8 @@ from .playback import (DEFAULT_LAUNCH, BagError, bag_scans, inspect_bag, run_pip
 GROUND_TRUTH_TOPIC = "/scenario"
 #: Seconds of the bag replayed on wall time for the CPU a robot pays (evaluate_bag --cpu-replay).
 CPU_REPLAY_S = 10.0
+#: Topics judged for returns on the robot's own parts, with and without the self filter.
+SELF_FILTER_TOPICS = ("/merged_scan",)
 
 
 # SLAM targets (--slam): options of laserscan_toolbox.evaluation.slam.check_targets' targets
@@ -47,7 +49,7 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
              rel_tol=0.03,
              log=print, map_topics=("/lidar_scan", "/slam_scan", "/merged_scan"), map_resolution=0.05,
              save_scans=False, slam=False, slam_targets=None, slam_seed=0, cpu_replay=CPU_REPLAY_S,
-             octomap=None, octomap_interval=None):
+             octomap=None, octomap_interval=None, self_filter_replay=True):
     """Runs everything and writes results.json (+ report.md and plots when ``plots``).
 
     cpu_replay: seconds of the bag (from its start) played once more on wall time, without
@@ -58,7 +60,8 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
     keys) joined to the thresholds; octomap: resolutions (m) at which to compare the unified
     scan with OctoMap on the same bag (``evaluation.octomap_comparison``, results' "octomap");
     octomap_interval: seconds between two messages of a topic in OctoMap's map (default its
-    ACCURACY_INTERVAL)."""
+    ACCURACY_INTERVAL); self_filter_replay: with ground truth and configs that use the self
+    filter, play the bag once more without it (``self_filter_eval``, results' "self_filter")."""
     t_start = time.time()
     thresholds = thresholds or {}
     log("inspecting %s" % bag)
@@ -71,6 +74,11 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
     if config_dir:
         args.append("config_dir:=%s" % os.path.abspath(config_dir))
     window = min(cpu_replay, info["end"] - info["start"]) if cpu_replay > 0 else None
+    configs = config_dir or os.path.join(REPO, "config", "sim_robot")
+    padding = None
+    if scenario is not None and os.path.isfile(os.path.join(configs, self_filter_eval.PADDING_CONFIG)):
+        padding = self_filter_eval.config_padding(configs)
+    unfiltered = None
     label = os.path.splitext(os.path.basename(bag))[0]
     with Session(workdir=workdir) as session:
         try:
@@ -83,6 +91,15 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
                 wall = run_pipeline_on_wall_time(
                     session, info, launch_file, args, duration=window, label=label + "_wall",
                     topics={t: d["type"] for t, d in run["records"].items()})
+            if self_filter_replay and padding is not None:
+                log("replaying the bag without the self filter (returns on the robot's own parts)")
+                plain = self_filter_eval.unfiltered_config_dir(
+                    configs, os.path.join(session.workdir, "config_without_self_filter"))
+                unfiltered = run_pipeline(
+                    session, info, launch_file,
+                    [a for a in args if not a.startswith("config_dir:=")] + ["config_dir:=" + plain],
+                    rate=rate, progress=progress, label=label + "_without_self_filter",
+                    select=lambda topic, _type: topic in SELF_FILTER_TOPICS)
         except RunError as e:
             session.keep = True  # the logs say why (a node that died, a bad config)
             raise RunError("%s\n(logs kept in %s)" % (e, session.workdir))
@@ -115,6 +132,14 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
                 a["input"] = True
                 results["accuracy"][t] = a
         results["glass"] = glass_stats(run, info, scenario, band, max_scans=max_scans)
+        if padding is not None:
+            def scans_of(r):
+                return {t: [s for s in r["records"].get(t, {}).get("scans", [])
+                            if info["start"] <= s["stamp"] <= info["end"]] for t in SELF_FILTER_TOPICS
+                        if r["records"].get(t, {}).get("scans")}
+            results["self_filter"] = self_filter_eval.self_filter_stats(
+                scans_of(run), scans_of(unfiltered) if unfiltered else {}, scenario, padding, band,
+                tol=tol, rel_tol=rel_tol, max_scans=max_scans)
         refs = None
         if output and map_topics:
             results["mapping"], refs = run_mapping(run, info, scenario, results, map_topics,
@@ -302,6 +327,9 @@ def main(argv=None):
     p.add_argument("--octomap-interval", type=float, metavar="S",
                    help="with --octomap: one message per topic per S seconds in OctoMap's map "
                    "(default 1; its CPU is measured on every message)")
+    p.add_argument("--no-self-filter-replay", action="store_true",
+                   help="do not play the bag once more without the self filter (results' "
+                   "self_filter then has no returns_on_robot_unfiltered)")
     p.add_argument("--save-scans", action="store_true",
                    help="also write every recorded scan to OUTPUT/scans.npz")
     p.add_argument("--no-progress", action="store_true")
@@ -356,7 +384,8 @@ def main(argv=None):
                        slam_targets=slam_targets if a.slam else None, slam_seed=a.slam_seed,
                        cpu_replay=a.cpu_replay,
                        octomap=(a.octomap or [0.05]) if a.octomap is not None else None,
-                       octomap_interval=a.octomap_interval)
+                       octomap_interval=a.octomap_interval,
+                       self_filter_replay=not a.no_self_filter_replay)
     except BagError as e:
         print("evaluate_bag: %s" % e, file=sys.stderr)
         return 2

@@ -182,7 +182,7 @@ class Arm:
     """The paper's arm above the base, simplified to a SCARA-style chain (shoulder and elbow
     turn about z, the gripper slides along z) so that every link stays level: the ray casts
     handle yawed boxes, and the poses still reach into the cameras' views (ahead-left of the
-    robot) and the front lidar's plane (lowered beside the robot's left side).
+    robot) and the rear lidar's plane (lowered beside the robot's right side).
 
     ``keyframes``: (relative time s, shoulder rad, elbow rad, gripper lift m) repeated every
     ``period`` seconds; between two keyframes the joints move smoothly (zero speed at each)."""
@@ -197,13 +197,13 @@ class Arm:
     period: float = 24.0
     keyframes: List[Tuple[float, float, float, float]] = field(default_factory=lambda: [
         (0.0, math.pi, math.pi, 0.20),     # stowed over the body
-        (4.0, math.pi, math.pi, 0.20),
-        (7.0, 0.05, 0.85, -0.05),          # ahead-left, in the left camera's view
-        (10.0, 0.05, 0.85, -0.05),
-        (13.0, 1.95, 0.45, -0.36),         # lowered beside the left side, in the front lidar's plane
-        (16.0, 1.95, 0.45, -0.36),
-        (20.0, math.pi, math.pi, 0.20),
-        (24.0, math.pi, math.pi, 0.20),
+        (2.0, math.pi, math.pi, 0.20),
+        (4.0, 0.05, 0.85, -0.05),          # ahead-left, in the left camera's view
+        (6.0, 0.05, 0.85, -0.05),
+        (8.5, -2.532, 1.187, -0.36),       # lowered beside the right side, in the rear lidar's
+        (12.0, -2.532, 1.187, -0.36),      # plane (a shelf 4 cm beyond its padded box there)
+        (15.0, -math.pi, math.pi, 0.20),   # stowed again (the same pose as +pi, +pi)
+        (24.0, -math.pi, math.pi, 0.20),
     ])
 
     def joints(self, rel_time):
