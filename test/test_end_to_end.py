@@ -100,6 +100,21 @@ def test_no_floor_or_ceiling_obstacles_while_the_cameras_tilt(evaluated):
         assert a["false_rate"] <= (0.03 if t == MERGED else 0.02), (t, a)
 
 
+def test_no_returns_on_the_robots_arm_with_the_self_filter(evaluated):
+    """The arm reaches into the left camera's view (2-8 s) and the rear lidar's plane (8.5-15 s):
+    with the self filter no return of /merged_scan lies on it and the shelf 4 cm beyond the
+    lowered gripper's padded box is kept; the playback without the filter has false obstacles
+    on it (the camera and lidar returns on the gripper)."""
+    sf = evaluated["results"]["self_filter"][MERGED]
+    assert sf["scans"] > 50 and sf["scans_unfiltered"] > 50, sf
+    assert sf["returns_on_robot"] == 0, sf
+    assert sf["returns_on_robot_unfiltered"] > 1000, sf
+    assert sf["near_robot_obstacles"] > 10, sf
+    assert sf["kept_near_robot_percent"] >= 90.0, sf
+    with open(os.path.join(evaluated["out"], "report.md")) as f:
+        assert "## Self filter (the robot's arm)" in f.read()
+
+
 def _nearest(stamps, t):
     i = int(np.argmin(np.abs(stamps - t)))
     return i, abs(stamps[i] - t)

@@ -43,23 +43,49 @@ def test_returns_inside_the_padded_gripper_count_and_outside_do_not():
     assert self_filter_eval.robot_returns([early], sc, 0.03) == 0
 
 
-def test_obstacles_near_the_arm_are_kept_only_when_the_scan_reads_them():
-    """The world's obstacles within 5 cm outside the padded boxes: the ideal scan itself keeps
-    all of them; a scan without returns keeps none."""
-    sc = Scenario.default(duration=60.0, camera_points=1000)
+def test_obstacles_near_the_arm_count_when_true_and_are_kept_when_the_filtered_scan_reads_them():
+    """Near the lowered gripper (the shelf beside the robot's right side): the ideal scan taken
+    for the unfiltered one has obstacles within 5 cm outside the padded boxes; a filtered scan
+    equal to it keeps them all, one without returns none; a return there that the world does not
+    have (the arm itself, or nothing) is no obstacle near the robot."""
+    sc = Scenario.default(duration=20.0, camera_points=1000)
     band = (0.0, 0.05, 1.0)
-    near_total = 0
+    plain, empty = [], []
     for t in np.arange(9.0, 12.0, 0.25):
-        scan = _scan(sc, [])
-        scan["stamp"] = sc.start_time + t
+        scan = dict(_scan(sc, []), stamp=sc.start_time + t)
         ideal = sc.ideal_scan(scan["stamp"], -math.pi, math.pi, scan["angle_increment"], 0.0, 12.0,
-                              0.05, 1.0)
-        near, kept = self_filter_eval.kept_near_robot([dict(scan, ranges=ideal)], sc, 0.03, band)
-        assert kept == near
-        near_none, kept_none = self_filter_eval.kept_near_robot([scan], sc, 0.03, band)
-        assert near_none == near and kept_none == 0
-        near_total += near
-    assert near_total > 0   # the shelf beside the lowered gripper
+                              0.05, 1.0).astype(np.float32)
+        plain.append(dict(scan, ranges=ideal))
+        empty.append(scan)
+    near, kept = self_filter_eval.kept_near_robot(plain, plain, sc, 0.03, band)
+    assert near > 20 and kept == near
+    assert self_filter_eval.kept_near_robot(empty, plain, sc, 0.03, band) == (near, 0)
+    # Scaled by 0.8 the returns are 13 cm (and more) nearer than the world: not confirmed.
+    wrong = [dict(s, ranges=s["ranges"] * np.float32(0.8)) for s in plain]
+    assert self_filter_eval.kept_near_robot(wrong, wrong, sc, 0.03, band)[0] == 0
+
+
+class _Params:
+    """The parameter calls of rosgraph.Master on a dict."""
+    def __init__(self, names):
+        self.names = set(names)
+
+    def getParamNames(self):
+        return sorted(self.names)
+
+    def deleteParam(self, space):
+        self.names = {n for n in self.names if n != space and not n.startswith(space + "/")}
+
+
+def test_a_second_launch_does_not_inherit_the_first_ones_self_filter():
+    master = _Params(["/merged_scan_merger/self_filter/padding",
+                      "/merged_scan_merger/self_filter/use_robot_description",
+                      "/merged_scan_merger/sources", "/camera_left_converter/self_filter/padding",
+                      "/robot_description", "/self_filter_note"])
+    deleted = self_filter_eval.delete_self_filter_params(master)
+    assert deleted == ["/camera_left_converter/self_filter", "/merged_scan_merger/self_filter"]
+    assert master.getParamNames() == ["/merged_scan_merger/sources", "/robot_description",
+                                      "/self_filter_note"]
 
 
 def test_the_replay_configs_have_no_self_filter_and_keep_the_description(tmp_path):
@@ -77,3 +103,30 @@ def test_the_replay_configs_have_no_self_filter_and_keep_the_description(tmp_pat
                 copy = yaml.safe_load(f)
             original.pop("self_filter", None)
             assert copy == original
+
+
+def test_a_deskewed_return_on_the_arm_counts_where_the_arm_was_in_the_world():
+    """A merger deskews each return as a point fixed in the world: one measured on the gripper
+    0.2 s before the stamp lands where the gripper was then, seen from the robot at the stamp
+    (behind it, the robot driving at 0.6 m/s), and is still a return on the robot."""
+    sc = Scenario.default(duration=20.0, camera_points=1000)
+    stamp = sc.start_time + BESIDE
+    then = stamp - 0.2
+    gripper = sc.robot.arm.boxes(BESIDE - 0.2)[0][2]
+    x, y, th = sc.true_pose(then)
+    wx, wy = x + math.cos(th) * gripper[0] - math.sin(th) * gripper[1], \
+        y + math.sin(th) * gripper[0] + math.cos(th) * gripper[1]
+    x0, y0, th0 = sc.true_pose(stamp)
+    px = math.cos(th0) * (wx - x0) + math.sin(th0) * (wy - y0)
+    py = -math.sin(th0) * (wx - x0) + math.cos(th0) * (wy - y0)
+    now = sc.robot.arm.boxes(BESIDE)[0][2]
+    assert math.hypot(px - now[0], py - now[1]) > 0.1     # off the gripper's box at the stamp
+    assert self_filter_eval.robot_returns([_scan(sc, [(px, py)])], sc, 0.03) == 1
+    # 0.5 s before (beyond the mergers' 0.3 s timeouts) it no longer counts.
+    early = sc.robot.arm.boxes(BESIDE - 0.5)[0][2]
+    x, y, th = sc.true_pose(stamp - 0.5)
+    wx, wy = x + math.cos(th) * early[0] - math.sin(th) * early[1], \
+        y + math.sin(th) * early[0] + math.cos(th) * early[1]
+    qx = math.cos(th0) * (wx - x0) + math.sin(th0) * (wy - y0)
+    qy = -math.sin(th0) * (wx - x0) + math.cos(th0) * (wy - y0)
+    assert self_filter_eval.robot_returns([_scan(sc, [(qx, qy)])], sc, 0.03) == 0

@@ -95,6 +95,9 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
                 log("replaying the bag without the self filter (returns on the robot's own parts)")
                 plain = self_filter_eval.unfiltered_config_dir(
                     configs, os.path.join(session.workdir, "config_without_self_filter"))
+                # A launch loads its YAMLs onto the same master, which still holds the first
+                # launch's self_filter blocks: without this the nodes would read them again.
+                self_filter_eval.delete_self_filter_params(session.master.master)
                 unfiltered = run_pipeline(
                     session, info, launch_file,
                     [a for a in args if not a.startswith("config_dir:=")] + ["config_dir:=" + plain],
@@ -139,7 +142,7 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
                         if r["records"].get(t, {}).get("scans")}
             results["self_filter"] = self_filter_eval.self_filter_stats(
                 scans_of(run), scans_of(unfiltered) if unfiltered else {}, scenario, padding, band,
-                tol=tol, rel_tol=rel_tol, max_scans=max_scans)
+                tol=tol, rel_tol=rel_tol)
         refs = None
         if output and map_topics:
             results["mapping"], refs = run_mapping(run, info, scenario, results, map_topics,
