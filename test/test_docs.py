@@ -47,6 +47,8 @@ COMMANDS = {
     "scripts/evaluate_bag /tmp/shop.bag --output /tmp/eval": "scripts/demo",
     "scripts/evaluate_bag /tmp/shop.bag --output /tmp/eval --map-topics /lidar_scan /merged_scan": "scripts/demo",
     "scripts/evaluate_bag /tmp/shop.bag --output /tmp/eval --map-topics --no-plots": CHECKED,
+    "scripts/evaluate_bag /tmp/shop.bag --output /tmp/eval --map-topics --no-plots "
+    "--no-self-filter-replay": CHECKED,
     "scripts/evaluate_bag /tmp/shop.bag --output /tmp/eval --map-topics --no-plots --cpu-replay 60": CHECKED,
     "scripts/evaluate_bag /tmp/shop.bag --output /tmp/eval --slam --max-slam-path-rmse 0.10 "
     "--min-slam-map-precision 0.90 --min-slam-3d-ratio 2 --max-localization-gap 0.02": "scripts/demo",
