@@ -51,9 +51,12 @@ const Input& synthetic()
   return input;
 }
 
-// The synthetic room with the robot's 6-link arm reaching into the camera's view (a fifth of
-// the cloud's points lie on its padded shapes), and the shapes posed for the self filter:
-// boxes, a cylinder and a sphere, as a URDF's collision elements would give.
+// The synthetic room with the robot's 6-link arm, and the shapes posed for the self filter:
+// boxes, a cylinder and a sphere, as a URDF's collision elements would give. Two poses of the
+// whole arm: reaching into the camera's view (a fifth of the cloud's points lie on its padded
+// shapes, the case and the worst one), and beside the base, moved by `arm_offset`, with
+// the gripper and wrists at the edge of the view (one point in twenty on it, the arm's shapes still
+// posed and their union box still in the view, as while the arm works beside the camera).
 struct ArmInput
 {
   Input in;
@@ -61,58 +64,68 @@ struct ArmInput
   std::size_t arm_points = 0;  // valid points inside the padded shapes
 };
 
+ArmInput makeArmInput(const Vector3d& arm_offset)
+{
+  ArmInput a;
+  Scene scene;
+  scene.wall_x = 3.5;
+  scene.boxes.push_back({ Vector3d(1.2, -0.9, 0.70), Vector3d(2.0, 0.1, 0.75) });
+  scene.boxes.push_back({ Vector3d(2.6, 0.4, 0.0), Vector3d(3.0, 1.4, 1.8) });
+  scene.boxes.push_back({ Vector3d(1.0, 0.5, 0.0), Vector3d(1.45, 0.95, 0.45) });
+  std::vector<Box> links = {
+    { Vector3d(0.6, 0.2, 0.0), Vector3d(0.75, 0.35, 0.5) },      // shoulder
+    { Vector3d(0.6, 0.2, 0.5), Vector3d(1.1, 0.3, 0.6) },        // upper arm
+    { Vector3d(1.0, -0.1, 0.45), Vector3d(1.1, 0.3, 0.55) },     // forearm
+    { Vector3d(0.95, -0.2, 0.35), Vector3d(1.1, -0.1, 0.55) },   // wrist 1
+    { Vector3d(0.95, -0.2, 0.25), Vector3d(1.05, -0.1, 0.35) },  // wrist 2
+    { Vector3d(0.9, -0.25, 0.1), Vector3d(1.05, -0.05, 0.25) },  // gripper
+  };
+  for (Box& link : links)
+    link.lo += arm_offset, link.hi += arm_offset;
+  std::vector<laserscan_common::RobotShape> shapes;
+  std::vector<Eigen::Isometry3d> poses;
+  for (std::size_t i = 0; i < links.size(); ++i)
+  {
+    scene.boxes.push_back(links[i]);
+    laserscan_common::RobotShape s;
+    s.name = s.frame = "link" + std::to_string(i + 1);
+    const Vector3d half = 0.5 * (links[i].hi - links[i].lo);
+    // A cylinder around the shoulder's box, a sphere around wrist 2's, boxes for the others.
+    const double radius = std::hypot(half.x(), half.y());
+    s.kind = i == 0   ? laserscan_common::ShapeKind::kCylinder
+             : i == 4 ? laserscan_common::ShapeKind::kSphere
+                      : laserscan_common::ShapeKind::kBox;
+    s.half_extents = i == 0 ? Vector3d(radius, radius, half.z()) : i == 4 ? Vector3d::Constant(half.norm()) : half;
+    s.padding = 0.02;
+    shapes.push_back(s);
+    poses.push_back(Eigen::Isometry3d(Eigen::Translation3d(0.5 * (links[i].lo + links[i].hi))));
+  }
+  a.filter = laserscan_common::SelfFilter(shapes, "self_filter/shapes");
+  a.filter.setFramePoses(poses);
+  a.in.camera_to_reference = cameraMount(0.6, 20 * kDeg);
+  const Points pts = render(scene, a.in.camera_to_reference, 320, 163, 87 * kDeg);
+  a.in.cloud = makeCloud<float>(pts, 320, 163, 0, 16);
+  a.in.view = a.in.cloud.view();
+  for (const auto& p : pts)
+  {
+    if (!std::isfinite(p.x()))
+      continue;
+    ++a.in.valid_points;
+    const Vector3d r = a.in.camera_to_reference * p;
+    a.arm_points += a.filter.contains(static_cast<float>(r.x()), static_cast<float>(r.y()), static_cast<float>(r.z()));
+  }
+  return a;
+}
+
 const ArmInput& syntheticWithArm()
 {
-  static const ArmInput input = [] {
-    ArmInput a;
-    Scene scene;
-    scene.wall_x = 3.5;
-    scene.boxes.push_back({ Vector3d(1.2, -0.9, 0.70), Vector3d(2.0, 0.1, 0.75) });
-    scene.boxes.push_back({ Vector3d(2.6, 0.4, 0.0), Vector3d(3.0, 1.4, 1.8) });
-    scene.boxes.push_back({ Vector3d(1.0, 0.5, 0.0), Vector3d(1.45, 0.95, 0.45) });
-    const std::vector<Box> links = {
-      { Vector3d(0.6, 0.2, 0.0), Vector3d(0.75, 0.35, 0.5) },      // shoulder
-      { Vector3d(0.6, 0.2, 0.5), Vector3d(1.1, 0.3, 0.6) },        // upper arm
-      { Vector3d(1.0, -0.1, 0.45), Vector3d(1.1, 0.3, 0.55) },     // forearm
-      { Vector3d(0.95, -0.2, 0.35), Vector3d(1.1, -0.1, 0.55) },   // wrist 1
-      { Vector3d(0.95, -0.2, 0.25), Vector3d(1.05, -0.1, 0.35) },  // wrist 2
-      { Vector3d(0.9, -0.25, 0.1), Vector3d(1.05, -0.05, 0.25) },  // gripper
-    };
-    std::vector<laserscan_common::RobotShape> shapes;
-    std::vector<Eigen::Isometry3d> poses;
-    for (std::size_t i = 0; i < links.size(); ++i)
-    {
-      scene.boxes.push_back(links[i]);
-      laserscan_common::RobotShape s;
-      s.name = s.frame = "link" + std::to_string(i + 1);
-      const Vector3d half = 0.5 * (links[i].hi - links[i].lo);
-      // A cylinder around the shoulder's box, a sphere around wrist 2's, boxes for the others.
-      const double radius = std::hypot(half.x(), half.y());
-      s.kind = i == 0   ? laserscan_common::ShapeKind::kCylinder
-               : i == 4 ? laserscan_common::ShapeKind::kSphere
-                        : laserscan_common::ShapeKind::kBox;
-      s.half_extents = i == 0 ? Vector3d(radius, radius, half.z()) : i == 4 ? Vector3d::Constant(half.norm()) : half;
-      s.padding = 0.02;
-      shapes.push_back(s);
-      poses.push_back(Eigen::Isometry3d(Eigen::Translation3d(0.5 * (links[i].lo + links[i].hi))));
-    }
-    a.filter = laserscan_common::SelfFilter(shapes, "self_filter/shapes");
-    a.filter.setFramePoses(poses);
-    a.in.camera_to_reference = cameraMount(0.6, 20 * kDeg);
-    const Points pts = render(scene, a.in.camera_to_reference, 320, 163, 87 * kDeg);
-    a.in.cloud = makeCloud<float>(pts, 320, 163, 0, 16);
-    a.in.view = a.in.cloud.view();
-    for (const auto& p : pts)
-    {
-      if (!std::isfinite(p.x()))
-        continue;
-      ++a.in.valid_points;
-      const Vector3d r = a.in.camera_to_reference * p;
-      a.arm_points +=
-        a.filter.contains(static_cast<float>(r.x()), static_cast<float>(r.y()), static_cast<float>(r.z()));
-    }
-    return a;
-  }();
+  static const ArmInput input = makeArmInput(Vector3d::Zero());
+  return input;
+}
+
+const ArmInput& syntheticWithArmAside()
+{
+  static const ArmInput input = makeArmInput(Vector3d(-0.45, -0.7, 0.0));
   return input;
 }
 
@@ -166,10 +179,9 @@ void runCore(benchmark::State& state, const Input* in)
     benchmark::Counter(static_cast<double>(in->view.size()), benchmark::Counter::kIsIterationInvariantRate);
 }
 
-// The arm cloud through the core, without and with the self filter.
-void runArm(benchmark::State& state, bool self_filter)
+// An arm cloud through the core, without and with the self filter.
+void runArmCloud(benchmark::State& state, const ArmInput& a, bool self_filter)
 {
-  const ArmInput& a = syntheticWithArm();
   dfsc::Projector projector{ dfsc::Parameters() };
   std::vector<float> ranges;
   for (auto _ : state)
@@ -289,11 +301,22 @@ void BM_Reference_FivePeople640x480(benchmark::State& s)
   runReference(s, fivePeople());
 }
 
+void runArm(benchmark::State& s, bool self_filter)
+{
+  runArmCloud(s, syntheticWithArm(), self_filter);
+}
+void runArmAside(benchmark::State& s, bool self_filter)
+{
+  runArmCloud(s, syntheticWithArmAside(), self_filter);
+}
+
 BENCHMARK(BM_Core_Synthetic320x163)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK(BM_Reference_Synthetic320x163)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK(BM_Core_FivePeople640x480)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runArm, WithoutSelfFilter, false)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runArm, WithSelfFilter, true)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runArmAside, WithoutSelfFilter, false)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runArmAside, WithSelfFilter, true)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK(BM_Reference_FivePeople640x480)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runImageCore, Depth640x480, 640u, 480u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runCloudPath, Depth640x480, 640u, 480u)->Unit(benchmark::kMillisecond)->MinTime(1.0);
@@ -329,11 +352,15 @@ public:
       if (core > 0 && ref > 0)
         std::printf("%-20s %10.4f %15.4f %7.1fx\n", cloud, core, ref, ref / core);
     }
-    const double without = median("runArm/WithoutSelfFilter");
-    const double with = median("runArm/WithSelfFilter");
-    if (without > 0 && with > 0)
-      std::printf("\n%-22s %10s %18s %8s\n%-22s %10.4f %18.4f %7.2fx\n", "cloud with 6-link arm", "core [ms]",
-                  "with self filter", "ratio", "Synthetic320x163Arm", without, with, with / without);
+    std::printf("\n%-24s %10s %18s %8s\n", "cloud with 6-link arm", "core [ms]", "with self filter", "ratio");
+    for (const auto& [arm, cloud] : { std::pair<const char*, const char*>{ "runArm", "Synthetic320x163Arm" },
+                                      { "runArmAside", "Synthetic320x163ArmAside" } })
+    {
+      const double without = median(std::string(arm) + "/WithoutSelfFilter");
+      const double with = median(std::string(arm) + "/WithSelfFilter");
+      if (without > 0 && with > 0)
+        std::printf("%-24s %10.4f %18.4f %7.2fx\n", cloud, without, with, with / without);
+    }
     std::printf("\n%-20s %15s %26s %8s %18s\n", "depth frame (16UC1)", "image core [ms]", "point_cloud_xyz+core [ms]",
                 "ratio", "cloud core [ms]");
     for (const char* frame : { "Depth640x480", "Depth1280x720" })
@@ -376,8 +403,9 @@ int main(int argc, char** argv)
   if (const Input* fp = fivePeople())
     std::printf("five_people.pcd: %zu points, %zu valid\n", fp->view.size(), fp->valid_points);
   std::printf("synthetic: %zu points, %zu valid\n", synthetic().view.size(), synthetic().valid_points);
-  std::printf("synthetic with arm: %zu points, %zu valid, %zu on the arm's padded shapes\n",
-              syntheticWithArm().in.view.size(), syntheticWithArm().in.valid_points, syntheticWithArm().arm_points);
+  for (const ArmInput* arm : { &syntheticWithArm(), &syntheticWithArmAside() })
+    std::printf("synthetic with arm%s: %zu points, %zu valid, %zu on the arm's padded shapes\n",
+                arm == &syntheticWithArm() ? "" : " aside", arm->in.view.size(), arm->in.valid_points, arm->arm_points);
   RatioReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
   reporter.printRatios();
