@@ -4,11 +4,9 @@ ros/cpu_accounting.py's (test_cpu_accounting.py)."""
 import math
 import os
 import subprocess
-import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(os.path.dirname(HERE), "scripts"))
-from laserscan_toolbox.experiments import camera_path as cpb  # noqa: E402
+from laserscan_toolbox.experiments import camera_path as cpb
 
 
 def test_figures_are_medians_and_ratios():

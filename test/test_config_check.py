@@ -11,8 +11,7 @@ import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
-sys.path.insert(0, os.path.join(REPO, "scripts"))
-from laserscan_toolbox import config_check as cc  # noqa: E402
+from laserscan_toolbox import config_check as cc
 
 CHECK = os.path.join(REPO, "scripts", "check_config")
 SHIPPED = sorted(set(glob.glob(os.path.join(REPO, "config", "**", "*.yaml"), recursive=True)

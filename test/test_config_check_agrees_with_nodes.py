@@ -5,17 +5,13 @@ the C++ cores (reached through their pybind11 modules) are the authority. These 
 two together: same defaults, and the same verdict on each single-parameter change.
 """
 import math
-import os
-import sys
 
 import pytest
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(os.path.dirname(HERE), "scripts"))
-from laserscan_toolbox import config_check as cc  # noqa: E402
+from laserscan_toolbox import config_check as cc
 
-import depth_filter_scan_converter_core as converter_core  # noqa: E402  (built modules: source devel/setup.bash)
-import multi_laserscan_merger_core as merger_core  # noqa: E402
+import depth_filter_scan_converter_core as converter_core  # (built modules: source devel/setup.bash)
+import multi_laserscan_merger_core as merger_core
 
 # Keys the ROS glue reads outside the core's parameter struct (queue depth of the tf filter; the
 # self_filter block, read by laserscan_common's glue: its verdicts are compared with the node's
@@ -174,7 +170,7 @@ def test_merger_rejects_duplicate_names_like_the_checker():
 
 
 # ---- range_scan_converter: the checker's RANGE schema against its C++ core ----
-import depth_filter_scan_converter_range_core as range_core  # noqa: E402
+import depth_filter_scan_converter_range_core as range_core
 
 RANGE_ROS_ONLY = {"queue_size"}
 

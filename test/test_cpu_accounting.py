@@ -11,8 +11,7 @@ import time
 import psutil
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.ros import cpu_accounting as ca  # noqa: E402
+from laserscan_toolbox.ros import cpu_accounting as ca
 
 BUSY_S = 0.3
 # What a process may spend besides its busy loop inside a window (waking up, one print): well

@@ -567,14 +567,8 @@ def test_relative_links_resolve():
 # --- parameter tables against check_config's schema (itself tied to the C++ structs) -----------
 
 def config_schema():
-    sys.path.insert(0, os.path.join(REPO, "scripts"))
-    import importlib
-    for name in ("laserscan_toolbox.config_check", "laserscan_toolbox.evaluation.config_check"):
-        try:
-            return importlib.import_module(name)
-        except ImportError:
-            continue
-    pytest.fail("laserscan_toolbox's config_check module not found")
+    from laserscan_toolbox import config_check
+    return config_check
 
 
 def parameter_table(readme, section, first_column="parameter", nth=0):

@@ -18,9 +18,8 @@ import pytest
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 SCRIPTS = os.path.join(REPO, "scripts")
-sys.path.insert(0, SCRIPTS)
-from laserscan_toolbox.evaluation import analysis, playback  # noqa: E402
-from laserscan_toolbox.ros.rosrun import MANAGER_TAG  # noqa: E402
+from laserscan_toolbox.evaluation import analysis, playback
+from laserscan_toolbox.ros.rosrun import MANAGER_TAG
 
 DATA = os.path.join(REPO, "test", "data", "real")
 DUAL_BAG = os.path.join(DATA, "dual_lidar_scans_demo.bag")

@@ -1,13 +1,10 @@
 """The evaluation's analysis on hand-made records (no ROS master, no bag playback)."""
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.evaluation import analysis, playback  # noqa: E402
+from laserscan_toolbox.evaluation import analysis, playback
 
 
 def test_dropped_inputs_are_found_by_stamp():

@@ -2,14 +2,11 @@
 reaches every case, and breaks what each case says while the valid inputs stay valid."""
 import io
 import math
-import os
 import random
-import sys
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-import genpy  # noqa: E402
+import genpy
 
-from laserscan_toolbox.experiments import fuzz_inputs as fz  # noqa: E402
+from laserscan_toolbox.experiments import fuzz_inputs as fz
 
 STAMP = genpy.Time(1700000000, 5)
 

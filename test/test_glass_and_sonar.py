@@ -5,17 +5,14 @@ ground truth stop at them. A sonar reads the closest surface anywhere in its con
 nothing echoes.
 """
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.simulation import raycast  # noqa: E402
-from laserscan_toolbox.simulation.robot import Robot, Sonar, Lidar, Camera  # noqa: E402
-from laserscan_toolbox.simulation.scenario import Scenario, TOPICS  # noqa: E402
-from laserscan_toolbox.simulation.world import World, Box, Cylinder  # noqa: E402
+from laserscan_toolbox.simulation import raycast
+from laserscan_toolbox.simulation.robot import Robot, Sonar, Lidar, Camera
+from laserscan_toolbox.simulation.scenario import Scenario, TOPICS
+from laserscan_toolbox.simulation.world import World, Box, Cylinder
 
 PANE_X, WALL_X = 3.0, 6.0
 

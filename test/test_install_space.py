@@ -15,15 +15,13 @@ import os
 import re
 import shutil
 import subprocess
-import sys
 import time
 
 import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
-sys.path.insert(0, os.path.join(REPO, "scripts"))
-from laserscan_toolbox.ros.rosrun import free_port, stop_process  # noqa: E402
+from laserscan_toolbox.ros.rosrun import free_port, stop_process
 
 PACKAGES = ["laserscan_common", "depth_filter_scan_converter", "multi_laserscan_merger",
             "scan_evaluation_tools"]

@@ -1,13 +1,11 @@
 """Occupancy mapping against a small analytic world (walls and a table top)."""
 import math
 import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.evaluation import mapping  # noqa: E402
+from laserscan_toolbox.evaluation import mapping
 
 RES = 0.05
 

@@ -1,12 +1,9 @@
 """Metrics on scans whose errors are known by construction."""
-import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.evaluation import metrics  # noqa: E402
+from laserscan_toolbox.evaluation import metrics
 
 
 def wall(n=360, d=2.0):

@@ -2,15 +2,12 @@
 back from map_server files and put on the ground truth's grid, judged with the mapping
 experiment's figures beside a 2D grid, and the targets of issue 20 on known runs."""
 import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-
-from laserscan_toolbox.evaluation import mapping  # noqa: E402
-from laserscan_toolbox.evaluation import octomap_comparison as oc  # noqa: E402
+from laserscan_toolbox.evaluation import mapping
+from laserscan_toolbox.evaluation import octomap_comparison as oc
 
 RES = 0.05
 ORIGIN = (-0.5, 1.0)

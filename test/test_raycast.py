@@ -1,14 +1,11 @@
 """Ray casting of the scenario simulator against analytic cases."""
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.simulation import raycast  # noqa: E402
-from laserscan_toolbox.simulation.world import World, Box, Cylinder, Hole, Person  # noqa: E402
+from laserscan_toolbox.simulation import raycast
+from laserscan_toolbox.simulation.world import World, Box, Cylinder, Hole, Person
 
 O = np.array([[0.0, 0.0, 0.5]])
 

@@ -7,9 +7,7 @@ import sys
 import psutil
 import pytest
 
-SCRIPTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts")
-sys.path.insert(0, SCRIPTS)
-from laserscan_toolbox.ros import rosrun  # noqa: E402
+from laserscan_toolbox.ros import rosrun
 
 
 class FakeProcess:

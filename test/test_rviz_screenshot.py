@@ -19,7 +19,6 @@ import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
-sys.path.insert(0, os.path.join(REPO, "scripts"))
 CONFIG = os.path.join(REPO, "config", "rviz", "pipeline.rviz")
 DUAL_BAG = os.path.join(HERE, "data", "real", "dual_lidar_scans_demo.bag")
 DUAL_LAUNCH = os.path.join(REPO, "launch", "dual_lidar_demo.launch")
@@ -77,9 +76,7 @@ def test_rviz_draws_the_pipeline(tmp_path):
     from laserscan_toolbox.ros.rviz_shot import displays, image_stats, screenshot
     port = free_port()
     env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_HOME=str(tmp_path),
-               ROS_LOG_DIR=str(tmp_path / "log"), ROS_IP="127.0.0.1",
-               PYTHONPATH=os.path.join(REPO, "scripts") + os.pathsep +
-               os.environ.get("PYTHONPATH", ""))
+               ROS_LOG_DIR=str(tmp_path / "log"), ROS_IP="127.0.0.1")
     core = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL, start_new_session=True)
     pub = None

@@ -1,16 +1,14 @@
 """The built-in scenario: ground truth, determinism, and a short simulated bag."""
 import math
 import os
-import sys
 
 import numpy as np
 import pytest
 import yaml
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.simulation.scenario import Scenario, TOPICS  # noqa: E402
+from laserscan_toolbox.simulation.scenario import Scenario, TOPICS
 
-import rosbag  # noqa: E402
+import rosbag
 
 DURATION = 3.0
 

@@ -3,14 +3,12 @@ what counts as on the arm, what counts as a kept obstacle near it, and the confi
 replay without the self filter."""
 import math
 import os
-import sys
 
 import numpy as np
 import yaml
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.evaluation import self_filter_eval  # noqa: E402
-from laserscan_toolbox.simulation.scenario import Scenario  # noqa: E402
+from laserscan_toolbox.evaluation import self_filter_eval
+from laserscan_toolbox.simulation.scenario import Scenario
 
 REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 BESIDE = 10.0   # s after the start: the gripper lowered beside the robot's right side

@@ -1,12 +1,9 @@
 """Pure parts of the soak benchmark (scripts/laserscan_toolbox/experiments/soak.py): slope,
 warm-up, growth and stalls."""
-import os
-import sys
 
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.experiments import soak  # noqa: E402
+from laserscan_toolbox.experiments import soak
 
 MB = soak.MB
 

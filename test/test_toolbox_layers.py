@@ -5,12 +5,10 @@ modules import each other round a cycle, and every module imports."""
 import ast
 import importlib
 import os
-import sys
 
 import pytest
 
 SCRIPTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts")
-sys.path.insert(0, SCRIPTS)
 PACKAGE = "laserscan_toolbox"
 
 # part -> the other parts its modules may import

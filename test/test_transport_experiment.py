@@ -9,9 +9,8 @@ import sys
 import pytest
 
 SCRIPTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts")
-sys.path.insert(0, SCRIPTS)
-from laserscan_toolbox.experiments import transport as te  # noqa: E402
-from laserscan_toolbox.ros.rosrun import LOADER_TAG, MANAGER_TAG  # noqa: E402
+from laserscan_toolbox.experiments import transport as te
+from laserscan_toolbox.ros.rosrun import LOADER_TAG, MANAGER_TAG
 
 
 def test_nodelet_loader_clients_cpu_is_summed():

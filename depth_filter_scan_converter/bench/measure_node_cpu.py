@@ -54,10 +54,8 @@ import time
 import psutil
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-PKG = os.path.dirname(HERE)
-sys.path.insert(0, os.path.join(os.path.dirname(PKG), "scripts"))
-from laserscan_toolbox.ros.cpu_accounting import process_cpu_s, thread_cpu_s  # noqa: E402
-from measure_node_cost import FEED, node_binary, start_master  # noqa: E402
+from laserscan_toolbox.ros.cpu_accounting import process_cpu_s, thread_cpu_s
+from measure_node_cost import FEED, node_binary, start_master
 
 # name -> (executable, extra private parameters)
 NODES = {

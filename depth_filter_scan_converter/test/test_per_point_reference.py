@@ -13,6 +13,8 @@ import tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
+# The benchmark scripts import each other from their folder, which is no package: the one path
+# entry a test adds (the toolbox itself comes from pytest.ini).
 sys.path.insert(0, os.path.join(PKG, "bench"))
 from measure_node_cost import FEED, node_binary, start_master  # noqa: E402
 

@@ -277,7 +277,6 @@ def test_self_filter_config_verdicts_of_node_and_check_config_agree(ros_env, yam
     names the parameter; the checker flags the same key)."""
     import yaml
 
-    sys.path.insert(0, os.path.join(os.path.dirname(PKG), "scripts"))
     from laserscan_toolbox import config_check as cc
 
     problems = cc.check_converter(yaml.safe_load(yaml_text))

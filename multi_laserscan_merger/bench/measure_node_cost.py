@@ -21,8 +21,7 @@ import tempfile
 import time
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(os.path.dirname(PKG), "scripts"))
-from laserscan_toolbox.ros.cpu_accounting import snapshot, spent, tree_processes  # noqa: E402
+from laserscan_toolbox.ros.cpu_accounting import snapshot, spent, tree_processes
 
 # name, frame, x, y, z, yaw, beams, angle_min, increment, rate
 SOURCES = [

@@ -61,7 +61,6 @@ def ideal(merger, sectors, t):
 
 
 def run(window, workdir):
-    sys.path.insert(0, os.path.join(REPO, "scripts"))
     import rospy
     from sensor_msgs.msg import LaserScan
     import multi_laserscan_merger_core as core

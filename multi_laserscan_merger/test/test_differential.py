@@ -8,16 +8,13 @@ in the neighbour: the core bins with float32 and a polynomial atan2 accurate to 
 the other way round. The classes (real / no return / invalid) must agree except in such border
 bins."""
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import merger_reference as ref  # noqa: E402
+import merger_reference as ref
 
-import multi_laserscan_merger_core as mlc  # noqa: E402
+import multi_laserscan_merger_core as mlc
 
 TOL = 0.01
 

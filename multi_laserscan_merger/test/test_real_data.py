@@ -11,14 +11,12 @@
 import gzip
 import math
 import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import merger_reference as ref  # noqa: E402
-import multi_laserscan_merger_core as mlc  # noqa: E402
+import merger_reference as ref
+import multi_laserscan_merger_core as mlc
 
 DATA = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'test', 'data', 'real'))
 TOL = 0.01

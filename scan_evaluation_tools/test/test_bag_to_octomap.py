@@ -11,17 +11,14 @@ import json
 import math
 import os
 import subprocess
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
-
-import rosbag  # noqa: E402
-from laserscan_toolbox.ros import bagio  # noqa: E402
-from laserscan_toolbox.evaluation.slam import tool  # noqa: E402
-from laserscan_toolbox.evaluation.octomap_comparison import read_map_server  # noqa: E402
+import rosbag
+from laserscan_toolbox.ros import bagio
+from laserscan_toolbox.evaluation.slam import tool
+from laserscan_toolbox.evaluation.octomap_comparison import read_map_server
 
 T0 = 1000.0
 ROBOT = (1.0, 2.0, math.pi / 2)

@@ -6,18 +6,14 @@ messages, with no-return, invalid and too-close beams; one scan before the odome
 and one in a frame tf does not know.
 """
 import math
-import os
 import subprocess
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
-
-import rosbag  # noqa: E402
-from laserscan_toolbox.ros import bagio  # noqa: E402
-from laserscan_toolbox.evaluation.slam import tool  # noqa: E402
+import rosbag
+from laserscan_toolbox.ros import bagio
+from laserscan_toolbox.evaluation.slam import tool
 
 RADIUS, OMEGA = 2.0, 0.5          # m, rad/s
 MOUNT = (0.3, -0.1, 0.2, 0.5)     # x, y, z, yaw of the laser in base_link

@@ -15,8 +15,9 @@ test test/test_toolbox_layers.py checks it):
                    points, transport, camera path, soak) and the node fuzz's inputs.
 
 Nothing is imported here, so that a tool only pays for what it uses. The command-line entry
-points live beside this folder in ``scripts/``; each adds ``scripts/`` to ``sys.path`` when it
-runs from the source tree and calls a module's ``main``. scan_evaluation_tools installs this
-package (its ``setup.py``, ``catkin_python_setup``) and the tools a robot runs, which then import
-it through the normal Python path.
+points live beside this folder in ``scripts/`` and call a module's ``main``; nothing sets a path
+(CONTRIBUTING.md, "How the toolbox is found"): run from the source tree, Python finds this
+package beside the script; scan_evaluation_tools installs it (its ``setup.py``,
+``catkin_python_setup``) and the tools a robot runs, which import it through the Python path of
+the sourced devel or install space; pytest gets it from ``pytest.ini``.
 """

@@ -13,8 +13,6 @@ a wrong step) give no scan and a good frame afterwards still does. The image con
 subscribes to image and camera_info only while somebody listens.
 """
 import math
-import os
-import sys
 import threading
 import unittest
 
@@ -25,10 +23,8 @@ import tf2_ros
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import CameraInfo, Image, LaserScan
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "..", "..", "scripts"))
-from laserscan_toolbox.simulation.robot import quat_from_matrix  # noqa: E402
-from laserscan_toolbox.simulation.scenario import Scenario  # noqa: E402
+from laserscan_toolbox.simulation.robot import quat_from_matrix
+from laserscan_toolbox.simulation.scenario import Scenario
 
 TIMES = [0.4, 1.1, 1.9, 2.6, 3.4]  # s into the scenario: the servo is at different tilts
 

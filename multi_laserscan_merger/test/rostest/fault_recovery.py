@@ -13,8 +13,6 @@ do not depend on the load. Faults, one after the other:
 During a fault the merged output must keep the camera's rate with the right content; after
 it, the first output showing both sensors again must come within MAX_RECOVERY (simulated s),
 and the output rate must be back. Prints every recovery time."""
-import os
-import sys
 import threading
 import time
 import unittest
@@ -29,8 +27,7 @@ from tf2_msgs.msg import TFMessage
 
 from scan_watch import LIDAR_DISTANCE, WALL_DISTANCE, ScanWatch, mount_transforms, room_fraction, wall_fraction
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "..", "..", "scripts"))
-from laserscan_toolbox.experiments import fuzz_inputs as fz  # noqa: E402
+from laserscan_toolbox.experiments import fuzz_inputs as fz
 
 TICK_NS = 10_000_000  # 10 ms of simulated time per tick
 MAX_RECOVERY = 0.5  # s (simulated) from the end of a fault to a complete output

@@ -396,7 +396,10 @@ class WallClockPlayer:
     the bag were played."""
 
     def __init__(self, bag, log_path, duration=None):
-        self.cmd = [sys.executable, "-m", "laserscan_toolbox.ros.wall_clock_play", bag] + (
+        # Run by its path: the player imports nothing of the toolbox, so the child needs no
+        # Python path of its own (source tree, devel or install space alike).
+        player = os.path.join(os.path.dirname(os.path.abspath(__file__)), "wall_clock_play.py")
+        self.cmd = [sys.executable, player, bag] + (
             ["--duration", "%.9g" % duration] if duration is not None else [])
         self.log_path = log_path
         self.proc = None
@@ -406,12 +409,9 @@ class WallClockPlayer:
 
     def start(self, timeout=60.0):
         """Starts the player; returns when it has begun playing (RunError if it could not)."""
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-            [os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))]
-            + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
         self._log = open(self.log_path, "w")
         self.proc = subprocess.Popen(self.cmd, stdout=subprocess.PIPE, stderr=self._log, text=True,
-                                     stdin=subprocess.DEVNULL, start_new_session=True, env=env)
+                                     stdin=subprocess.DEVNULL, start_new_session=True)
         line = self._line(timeout)
         if not line.startswith("started "):
             self.stop()
