@@ -306,10 +306,11 @@ def test_wall_time_replay_overrides_use_sim_time_where_the_launch_declares_it(tm
 def test_the_report_gives_what_a_robot_pays_beside_the_clock_share():
     from laserscan_toolbox.evaluation import report
     from laserscan_toolbox.evaluation.analysis import cpu_stats
+    from laserscan_toolbox.evaluation.results import EvaluationResult
     sim = _figures(**{MGR: 8.0, LOAD_A: 2.0, LOAD_B: 2.25})
     per, summary = cpu_stats(sim, _figures(**{MGR: 6.5, LOAD_A: 0.25, LOAD_B: 0.5}))
     summary.update(window_s=10.0, clock_hz=200, rate=1.0, wall_replay_problem=None)
-    res = {"cpu": per, "cpu_summary": summary, "playback_wall_s": 60.0}
+    res = EvaluationResult(cpu=per, cpu_summary=summary, playback_wall_s=60.0)
     text = report.cpu_table(res)
     assert "| nodelet loader clients (2) | 0.8 | 4.2 | 3.5 |  |" in text
     assert "| **all launched processes** | **7.2** | 12.2 | 5.0 |  |" in text
@@ -320,7 +321,7 @@ def test_the_report_gives_what_a_robot_pays_beside_the_clock_share():
     assert "under rosbag's 200 Hz /clock: 12.2% (the /clock share, not paid on a robot: 5.0%)" in lines
     # without a replay the figures say they are the simulated clock's
     per, summary = cpu_stats(sim)
-    res = {"cpu": per, "cpu_summary": dict(summary, wall_replay_problem=None), "playback_wall_s": 60.0}
+    res = EvaluationResult(cpu=per, cpu_summary=dict(summary, wall_replay_problem=None), playback_wall_s=60.0)
     assert "under the simulated clock" in report.cpu_table(res)
     assert "12.2% of one core under the simulated clock" in "\n".join(report.cpu_summary_lines(res))
 

@@ -19,6 +19,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 SCRIPTS = os.path.join(REPO, "scripts")
 from laserscan_toolbox.evaluation import analysis, playback
+from laserscan_toolbox.evaluation.results import EvaluationResult, NotRun
 from laserscan_toolbox.ros.rosrun import MANAGER_TAG
 
 DATA = os.path.join(REPO, "test", "data", "real")
@@ -342,17 +343,21 @@ def test_unusable_bags_are_reported(tmp_path):
 
 
 def test_thresholds_decide_the_exit_status():
-    results = {"outputs": {"/s": {"rate_hz": 10.0, "latency_p95_s": 0.02, "dropped_fraction": 0.0,
-                                  "coverage": 0.5}},
-               "accuracy": {"/s": {"median_error": 0.01, "p95_error": 0.2, "false_rate": 0.0,
-                                   "missed_rate": 0.4}},
-               "cpu": {"m": {"cpu_percent": 30.0}}}
+    results = EvaluationResult(
+        outputs={"/s": {"rate_hz": 10.0, "latency_p95_s": 0.02, "dropped_fraction": 0.0, "coverage": 0.5},
+                 "/skipped": {"rate_hz": 10.0}},
+        accuracy={"/s": {"median_error": 0.01, "p95_error": 0.2, "false_rate": 0.0, "missed_rate": 0.4},
+                  "/skipped": NotRun("frame 'x' is upside down")},
+        cpu={"m": {"cpu_percent": 30.0}})
     ok = analysis.check_thresholds(results, {"max_median_error": 0.03, "min_rate": 8}, ["/s"])
     assert all(c for c, _ in ok) and len(ok) == 2
     bad = analysis.check_thresholds(results, {"max_p95_error": 0.1, "max_cpu": 10}, ["/s"])
     assert [c for c, _ in bad] == [False, False]
     missing = analysis.check_thresholds(results, {"min_rate": 1}, ["/other"])
     assert [c for c, _ in missing] == [False]
+    # a topic whose accuracy step did not run has no figures: its accuracy threshold fails
+    skipped = analysis.check_thresholds(results, {"max_median_error": 0.03}, ["/skipped"])
+    assert skipped == [(False, "max_median_error: /skipped has no accuracy figures")]
 
 
 def test_evaluate_bag_usage_errors(tmp_path):

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from laserscan_toolbox.evaluation import analysis, playback
+from laserscan_toolbox.evaluation.results import Check, EvaluationResult
 
 
 def test_dropped_inputs_are_found_by_stamp():
@@ -161,13 +162,12 @@ def test_extreme_and_missing_stamps_are_reported(tmp_path):
     assert far["delay_after_input_median_s"] == pytest.approx(0.002, abs=1e-4)
     assert math.isnan(stats["/dup"]["rate_hz"])  # one stamp thrice: no rate, no crash
 
-    results = {"bag": "x.bag", "bag_duration_s": 0.5, "bag_size_bytes": 1000,
-               "player": ["rosbag", "play"], "launch": ["roslaunch", "x"],
-               "thresholds": [], "playback_wall_s": 1.0, "cpu": {}, "outputs": stats,
-               "inputs": {"/scan_in": {"type": "sensor_msgs/LaserScan", "count": 6,
-                                       "rate_hz": 10.0, "bytes_per_s": 1.0,
-                                       "age_median_s": float(np.median(inputs["/scan_in"]["age"])),
-                                       "age_min_s": float(np.min(inputs["/scan_in"]["age"]))}}}
+    results = EvaluationResult(
+        bag="x.bag", bag_duration_s=0.5, bag_size_bytes=1000, player=["rosbag", "play"],
+        launch=["roslaunch", "x"], playback_wall_s=1.0, outputs=stats,
+        inputs={"/scan_in": {"type": "sensor_msgs/LaserScan", "count": 6, "rate_hz": 10.0, "bytes_per_s": 1.0,
+                             "age_median_s": float(np.median(inputs["/scan_in"]["age"])),
+                             "age_min_s": float(np.min(inputs["/scan_in"]["age"]))}})
     report.write_report(results, {}, run, str(tmp_path))
     text = (tmp_path / "report.md").read_text()
     assert "**Negative latencies.**" in text
@@ -176,18 +176,18 @@ def test_extreme_and_missing_stamps_are_reported(tmp_path):
     assert (tmp_path / "latency.png").stat().st_size > 0
     assert "negative latencies" in report.summary_text(results)
     # no note when every latency is positive
-    results["outputs"] = {"/dup": stats["/dup"]}
-    results["inputs"]["/scan_in"]["age_min_s"] = 0.01
+    results.outputs = {"/dup": stats["/dup"]}
+    results.inputs["/scan_in"]["age_min_s"] = 0.01
     assert report.stamps_ahead_note(results) == []
 
 
 def test_stale_receive_clock_is_told_apart_from_stamps_ahead():
     from laserscan_toolbox.evaluation import report
-    results = {"outputs": {"/m": {"latency_min_s": -0.1, "negative_latency_fraction": 0.003,
-                                  "delay_after_input_median_s": 0.001,
-                                  "delay_after_input_p95_s": 0.004,
-                                  "delay_after_input_min_s": -0.18}},
-               "inputs": {"/in": {"age_min_s": 0.08, "age_median_s": 0.084}}}
+    results = EvaluationResult(outputs={"/m": {"latency_min_s": -0.1, "negative_latency_fraction": 0.003,
+                                               "delay_after_input_median_s": 0.001,
+                                               "delay_after_input_p95_s": 0.004,
+                                               "delay_after_input_min_s": -0.18}},
+                               inputs={"/in": {"age_min_s": 0.08, "age_median_s": 0.084}})
     text = "\n".join(report.stamps_ahead_note(results))
     assert "likely cause: the receiving clock read stale" in text
     assert "input `/in`" not in text
@@ -253,13 +253,13 @@ def test_results_json_and_demo_summary_link_each_section_once(tmp_path):
     experiment and the rviz picture from report.md once, however often it runs."""
     import json
     from laserscan_toolbox.evaluation import report
-    results = {"bag": "/x/s.bag", "bag_duration_s": np.float64(6.0), "outputs": {},
-               "inputs": {}, "cpu": {"manager": {"cpu_percent": np.float32(12.5)}},
-               "thresholds": [{"ok": True, "check": "rate"}], "beams": np.arange(3),
-               "frames": {"odom"}}
-    report.write_json(results, str(tmp_path / "results.json"))
+    results = EvaluationResult(bag="/x/s.bag", bag_duration_s=np.float64(6.0),
+                               cpu={"manager": {"cpu_percent": np.float32(12.5)}},
+                               scan_plot={"beams": np.arange(3), "frames": {"odom"}},
+                               thresholds=[Check(True, "rate")])
+    report.write_json(results.to_json(), str(tmp_path / "results.json"))
     back = json.loads((tmp_path / "results.json").read_text())
-    assert back["beams"] == [0, 1, 2] and back["frames"] == ["odom"]
+    assert back["scan_plot"] == {"beams": [0, 1, 2], "frames": ["odom"]}
     assert back["cpu"]["manager"]["cpu_percent"] == 12.5
     (tmp_path / "cpu").mkdir()
     row = {"points_per_camera": 10000, "merged": {"manager_cpu_percent": 3.0, "bytes_per_s": 2e3},

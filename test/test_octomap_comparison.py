@@ -113,6 +113,7 @@ def test_voxel_band_raises_the_floor_to_a_voxel_boundary():
 
 def test_report_section_lists_every_run_and_target():
     from laserscan_toolbox.evaluation import report
+    from laserscan_toolbox.evaluation.results import NotRun
     u = dict(run("unified", 100000, 0.05, 0.12, 0.11, 0.61, 0.945), map_recall=0.81,
              peak_memory_mb=25.0, slam={"map_precision": 0.979, "map_recall": 0.8,
                                         "obstacles_3d_found": 0.513, "wall_s_per_s": 0.138})
@@ -128,4 +129,5 @@ def test_report_section_lists_every_run_and_target():
     assert "**missed:** 100k points: unified 3D obstacles found" in text
     assert "met: 100k points: OctoMap CPU / unified CPU 120.8 >= 10" in text
     assert "(octomap/octomap_maps.png)" in text
-    assert "Not run: no depth" in "\n".join(report.octomap_section({"skipped": "no depth"}))
+    assert "Not run: no depth" in "\n".join(report.octomap_section(NotRun("no depth")))
+    assert "Not run: no ground truth" in "\n".join(report.octomap_section(None))

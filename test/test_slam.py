@@ -1,14 +1,14 @@
 """The SLAM experiment's alignment and metrics on synthetic paths and maps with known
 offsets (laserscan_toolbox.evaluation.slam); the MRPT runs themselves are in test_end_to_end.py."""
+import dataclasses
 import math
 import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.evaluation import mapping, slam  # noqa: E402
+from laserscan_toolbox.evaluation import mapping, slam
+from laserscan_toolbox.evaluation.results import NotRun, SlamRun
 
 RES = 0.05
 
@@ -221,11 +221,12 @@ def test_localization_rmse_of_the_particle_mean():
 
 
 def results(rmse_l=0.05, rmse_u=0.06, prec=0.95, f3l=0.1, f3u=0.3, loc_l=0.05, loc_u=0.06):
-    return {"slam": {"/lidar_scan": {"path_rmse_m": rmse_l, "map_precision": 0.97,
-                                     "obstacles_3d_found": f3l},
-                     "/slam_scan": {"path_rmse_m": rmse_u, "map_precision": prec,
-                                      "obstacles_3d_found": f3u}},
-            "localization": {"/lidar_scan": {"rmse_m": loc_l}, "/slam_scan": {"rmse_m": loc_u}}}
+    return SlamRun(slam={"/lidar_scan": {"path_rmse_m": rmse_l, "map_precision": 0.97,
+                                         "obstacles_3d_found": f3l},
+                         "/slam_scan": {"path_rmse_m": rmse_u, "map_precision": prec,
+                                        "obstacles_3d_found": f3u}},
+                   localization={"/lidar_scan": {"rmse_m": loc_l}, "/slam_scan": {"rmse_m": loc_u}},
+                   figures={}, min_interval_s=slam.MIN_INTERVAL, seed=0, tolerance_m=slam.MAP_TOLERANCE)
 
 
 def test_targets_pass_and_fail_on_the_right_figures():
@@ -238,9 +239,12 @@ def test_targets_pass_and_fail_on_the_right_figures():
     for word, res in cases.items():
         failed = [text for ok, text in slam.check_targets(res) if not ok]
         assert len(failed) == 1 and word in failed[0], (word, failed)
-    # missing figures fail (NaN compares false)
-    failed = [text for ok, text in slam.check_targets({"slam": {}, "localization": {}}) if not ok]
-    assert len(failed) == 4
+    # missing figures fail (NaN compares false), and so does every target of a SLAM run that
+    # failed or was not run
+    for run in (dataclasses.replace(results(), slam={}, localization={}), NotRun("rbpf-slam died", failed=True),
+                None):
+        failed = [text for ok, text in slam.check_targets(run) if not ok]
+        assert len(failed) == 4, (run, failed)
     # no 3D obstacles in either map is not "twice as many"
     assert not all(ok for ok, _ in slam.check_targets(results(f3l=0.0, f3u=0.0)))
 

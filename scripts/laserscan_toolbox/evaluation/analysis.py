@@ -22,6 +22,7 @@ import numpy as np
 from . import metrics
 from ..ros.rosrun import ROLES, process_role
 from .playback import SKIP_TOPICS, bag_scans
+from .results import NotRun
 
 BASE_FRAME = "base_link"
 
@@ -240,7 +241,8 @@ def band_from_configs(config_dir):
 
 def ground_truth_stats(run, bag_info, scenario, band, tol=0.05, beam_window=1,
                        max_scans=300, lidar_band=0.02, rel_tol=0.03):
-    """Accuracy of every recorded LaserScan against the scenario's ideal scans.
+    """Accuracy of every recorded LaserScan against the scenario's ideal scans: ({topic:
+    figures, or NotRun when its frame cannot be placed}, {topic: an example scan}).
 
     band: (floor_height in base_link, min_height, max_height) of the robot's obstacle band.
     Scans in base_link are compared with the ideal scan of that band at the true pose;
@@ -257,10 +259,10 @@ def ground_truth_stats(run, bag_info, scenario, band, tol=0.05, beam_window=1,
         frame = scans[0]["frame"].lstrip("/")
         mount = np.eye(4) if frame == BASE_FRAME else static_pose_in(bag_info["static_tf"], frame)
         if mount is None:
-            results[topic] = {"skipped": "frame '%s' is not fixed to %s" % (frame, BASE_FRAME)}
+            results[topic] = NotRun("frame '%s' is not fixed to %s" % (frame, BASE_FRAME))
             continue
         if mount[2, 2] < 0:
-            results[topic] = {"skipped": "frame '%s' is upside down" % frame}
+            results[topic] = NotRun("frame '%s' is upside down" % frame)
             continue
         if frame == BASE_FRAME:
             z_min, z_max = zlo, zhi
@@ -407,15 +409,17 @@ def cpu_stats(sim_clock, wall=None, rate=1.0):
 
 
 def check_thresholds(results, options, topics):
-    """List of (ok, text) for every threshold given, on every topic in ``topics``."""
+    """List of (ok, text) for every threshold given, on every topic in ``topics``, of an
+    ``EvaluationResult``."""
     checks = []
+    figures = {"accuracy": results.accuracy_figures(), "outputs": results.outputs}
     for opt, key, cmp, section, _ in THRESHOLDS:
         limit = options.get(opt)
         if limit is None:
             continue
         for topic in topics:
-            r = results.get(section, {}).get(topic)
-            if r is None or "skipped" in r:
+            r = figures[section].get(topic)
+            if r is None:
                 checks.append((False, "%s: %s has no %s figures" % (opt, topic, section)))
                 continue
             v = r.get(key, float("nan"))
@@ -424,14 +428,14 @@ def check_thresholds(results, options, topics):
             checks.append((ok, "%s %s: %.4g %s %.4g" % (topic, key, v, cmp, limit)))
     # CPU of the whole pipeline
     if options.get("max_cpu") is not None:
-        total = sum(p["cpu_percent"] for p in results.get("cpu", {}).values())
+        total = sum(p["cpu_percent"] for p in results.cpu.values())
         checks.append((total <= options["max_cpu"],
                        "pipeline cpu_percent: %.4g <= %.4g" % (total, options["max_cpu"])))
     return checks
 
 
 def default_threshold_topics(results):
-    outs = results.get("outputs", {})
+    outs = results.outputs
     if "/merged_scan" in outs:
         return ["/merged_scan"]
     return [t for t, v in outs.items() if v["type"] == "sensor_msgs/LaserScan"]

@@ -5,6 +5,7 @@
 and, when the bag carries the scenario's ground truth, range error and false / missed
 obstacles per scan topic), runs the mapping and SLAM experiments on the recorded streams
 when asked, and writes ``results.json``, the Markdown report and its plots (``report``).
+The steps hand each other one typed ``EvaluationResult`` (``results``).
 """
 
 import os
@@ -20,6 +21,7 @@ from .analysis import (BASE_FRAME, THRESHOLDS, band_from_configs, check_threshol
                        output_stats, scan_snapshot)
 from .playback import (DEFAULT_LAUNCH, BagError, bag_scans, inspect_bag, run_pipeline,
                        run_pipeline_on_wall_time, save_scan_records)
+from .results import Check, EvaluationResult, NotRun, ran
 
 GROUND_TRUTH_TOPIC = "/scenario"
 #: Seconds of the bag replayed on wall time for the CPU a robot pays (evaluate_bag --cpu-replay).
@@ -50,7 +52,8 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
              log=print, map_topics=("/lidar_scan", "/slam_scan", "/merged_scan"), map_resolution=0.05,
              save_scans=False, slam=False, slam_targets=None, slam_seed=0, cpu_replay=CPU_REPLAY_S,
              octomap=None, octomap_interval=None, self_filter_replay=True):
-    """Runs everything and writes results.json (+ report.md and plots when ``plots``).
+    """Runs everything, returns the ``EvaluationResult`` and writes it to results.json (+
+    report.md and plots when ``plots``).
 
     cpu_replay: seconds of the bag (from its start) played once more on wall time, without
     /clock, for the CPU figures (``measure_cpu``); 0: none, the CPU figures are then those
@@ -107,21 +110,20 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
             session.keep = True  # the logs say why (a node that died, a bad config)
             raise RunError("%s\n(logs kept in %s)" % (e, session.workdir))
     cpu, cpu_summary = measure_cpu(run, wall, rate)
-    results = {"bag": info["path"], "bag_duration_s": info["end"] - info["start"],
-               "bag_size_bytes": info["size"], "launch": run["launch"],
-               "player": run["player"], "ground_truth": scenario is not None,
-               "inputs": input_stats(info),
-               "outputs": output_stats(run, info), "cpu": cpu, "cpu_summary": cpu_summary,
-               "cpu_whole_playback_sim_clock": run["cpu"],
-               "playback_wall_s": run["wall"], "unrecorded_outputs":
-                   {t: ty for t, ty in run["outputs"].items() if t not in run["records"]}}
+    results = EvaluationResult(
+        bag=info["path"], bag_duration_s=info["end"] - info["start"], bag_size_bytes=info["size"],
+        launch=run["launch"], player=run["player"], ground_truth=scenario is not None,
+        inputs=input_stats(info), outputs=output_stats(run, info), cpu=cpu,
+        cpu_summary=cpu_summary, cpu_whole_playback_sim_clock=run["cpu"],
+        playback_wall_s=run["wall"],
+        unrecorded_outputs={t: ty for t, ty in run["outputs"].items() if t not in run["records"]})
     examples = {}
     if scenario is not None:
         if band is None:
             band = band_from_configs(config_dir or os.path.join(REPO, "config", "sim_robot"))
         band = band or (0.0, 0.05, 1.0)
-        results["band"] = list(band)
-        results["accuracy"], examples = ground_truth_stats(
+        results.band = list(band)
+        results.accuracy, examples = ground_truth_stats(
             run, info, scenario, band, tol=tol, beam_window=beam_window, max_scans=max_scans,
             rel_tol=rel_tol)
         # the sources that come straight from the bag (lidars), judged the same way
@@ -132,34 +134,35 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
                                            band, tol=tol, beam_window=beam_window,
                                            max_scans=max_scans, rel_tol=rel_tol)
             for t, a in acc_in.items():
-                a["input"] = True
-                results["accuracy"][t] = a
-        results["glass"] = glass_stats(run, info, scenario, band, max_scans=max_scans)
+                if ran(a):
+                    a["input"] = True
+                results.accuracy[t] = a
+        results.glass = glass_stats(run, info, scenario, band, max_scans=max_scans)
         if padding is not None:
             def scans_of(r):
                 return {t: [s for s in r["records"].get(t, {}).get("scans", [])
                             if info["start"] <= s["stamp"] <= info["end"]] for t in SELF_FILTER_TOPICS
                         if r["records"].get(t, {}).get("scans")}
-            results["self_filter"] = self_filter_eval.self_filter_stats(
+            results.self_filter = self_filter_eval.self_filter_stats(
                 scans_of(run), scans_of(unfiltered) if unfiltered else {}, scenario, padding, band,
                 tol=tol, rel_tol=rel_tol)
         refs = None
         if output and map_topics:
-            results["mapping"], refs = run_mapping(run, info, scenario, results, map_topics,
-                                                   os.path.join(output, "maps"), log=log)
+            results.mapping, refs = run_mapping(run, info, scenario, results, map_topics,
+                                                os.path.join(output, "maps"), log=log)
         if slam and refs is not None:
-            results.update(run_slam(run, info, scenario, refs, map_topics, output, seed=slam_seed,
-                                    log=log))
+            results.slam = run_slam(run, info, scenario, refs, map_topics, output, seed=slam_seed,
+                                    log=log)
         if octomap and refs is not None:
             from . import octomap_comparison
-            results["octomap"] = octomap_comparison.compare(
+            results.octomap = octomap_comparison.compare(
                 bag, info, scenario, results, refs, run, os.path.join(output, "octomap"),
                 resolutions=octomap, log=log,
                 **({"accuracy_interval": octomap_interval} if octomap_interval else {}))
     elif output and plots:
         run["snapshot"] = scan_snapshot(bag, info, run)
         if run["snapshot"]:
-            results["scan_plot"] = {
+            results.scan_plot = {
                 "topic": run["snapshot"]["topic"], "stamp": run["snapshot"]["stamp"],
                 "frame": run["snapshot"]["frame"],
                 "scans": {t: {"frame": v["frame"], "input": v["input"],
@@ -170,13 +173,13 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
     checks = check_thresholds(results, thresholds, topics)
     if slam_targets:
         from . import slam as slam_module
-        checks += slam_module.check_targets(results, slam_targets, *(map_topics or ())[:2])
-    results["thresholds"] = [{"ok": ok, "check": text} for ok, text in checks]
-    results["passed"] = all(ok for ok, _ in checks)
-    results["evaluation_wall_s"] = time.time() - t_start
+        checks += slam_module.check_targets(results.slam, slam_targets, *(map_topics or ())[:2])
+    results.thresholds = [Check(ok, text) for ok, text in checks]
+    results.passed = all(ok for ok, _ in checks)
+    results.evaluation_wall_s = time.time() - t_start
     if output:
         os.makedirs(output, exist_ok=True)
-        report.write_json(results, os.path.join(output, "results.json"))
+        report.write_json(results.to_json(), os.path.join(output, "results.json"))
         if save_scans:
             save_scan_records(run, os.path.join(output, "scans.npz"))
         if plots:
@@ -217,11 +220,11 @@ def run_mapping(run, info, scenario, results, map_topics, outdir, resolution=0.0
         if scans:
             streams["%s" % t] = [s for s in scans if info["start"] <= s["stamp"] <= info["end"]]
     if not streams:
-        return {"skipped": "none of %s was recorded" % ", ".join(map_topics)}, None
+        return NotRun("none of %s was recorded" % ", ".join(map_topics)), None
     log("mapping experiment on %s" % ", ".join(streams))
-    floor, zlo, zhi = results["band"]
+    floor, zlo, zhi = results.band
     plane = None
-    for a in results.get("accuracy", {}).values():
+    for a in results.accuracy_figures().values():
         if a.get("frame", BASE_FRAME) != BASE_FRAME and "z_band" in a:
             plane = tuple(a["z_band"])
             break
@@ -262,8 +265,8 @@ def run_mapping(run, info, scenario, results, map_topics, outdir, resolution=0.0
 
 
 def run_slam(run, info, scenario, refs, map_topics, output, seed=0, log=print):
-    """The SLAM and localization experiment on the recorded streams; returns the results'
-    "slam", "localization" (keyed by topic) and "slam_experiment" entries."""
+    """The SLAM and localization experiment on the recorded streams: a ``SlamRun``, or
+    ``NotRun`` (skipped, or failed: the reason is logged)."""
     from . import slam
     scans = {t: [s for s in run["records"].get(t, {}).get("scans", [])
                  if info["start"] <= s["stamp"] <= info["end"]] for t in map_topics[:2]}
@@ -272,13 +275,8 @@ def run_slam(run, info, scenario, refs, map_topics, output, seed=0, log=print):
                                    topics=tuple(map_topics[:2]), seed=seed, log=log)
     except slam.SlamError as e:
         log("SLAM experiment failed: %s" % e)
-        return {"slam_experiment": {"error": str(e)}}
-    if "skipped" in res:
-        return {"slam_experiment": res}
-    out = {"slam": res.pop("slam"), "slam_experiment": res}
-    if "localization" in res:
-        out["localization"] = res.pop("localization")
-    return out
+        return NotRun(str(e), failed=True)
+    return res
 
 
 def main(argv=None):
@@ -398,4 +396,4 @@ def main(argv=None):
     print(report.summary_text(res))
     if a.output:
         print("report: %s" % os.path.join(a.output, "report.md"))
-    return 0 if res["passed"] else 1
+    return 0 if res.passed else 1

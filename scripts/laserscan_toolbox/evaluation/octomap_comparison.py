@@ -32,6 +32,7 @@ import time
 import numpy as np
 
 from . import mapping
+from .results import NotRun
 from ..ros.rosrun import MANAGER_TAG
 
 #: One message per topic per this many seconds in the accuracy run.
@@ -122,17 +123,17 @@ def _manager(cpu):
 
 def compare(bag, info, scenario, results, refs, run, outdir, resolutions=RESOLUTIONS,
             accuracy_interval=ACCURACY_INTERVAL, cost_window=COST_WINDOW, log=print):
-    """The comparison on one evaluated bag; returns {"runs": [...], "targets": [...], ...} and
-    writes octomap_maps.png into ``outdir``."""
+    """The comparison on one evaluated bag (``results``: its EvaluationResult so far); returns
+    {"runs": [...], "targets": [...], ...} (NotRun without depth images or the unified map)
+    and writes octomap_maps.png into ``outdir``."""
     depth = sorted(t for t, v in info["topics"].items()
                    if v["type"] == "sensor_msgs/Image" and "depth" in t)
     lidars = sorted(t for t, v in info["topics"].items()
                     if v["type"] == "sensor_msgs/LaserScan")
     maps = refs.get("maps", {})
     if not depth or UNIFIED_TOPIC not in maps:
-        return {"skipped": "needs depth images in the bag and the known-pose map of %s"
-                           % UNIFIED_TOPIC}
-    floor, zlo, zhi = results["band"]
+        return NotRun("needs depth images in the bag and the known-pose map of %s" % UNIFIED_TOPIC)
+    floor, zlo, zhi = results.band
     band = (floor + zlo, floor + zhi)
     data_s = info["end"] - info["start"]
     cam = scenario.robot.cameras[0]
@@ -163,7 +164,7 @@ def compare(bag, info, scenario, results, refs, run, outdir, resolutions=RESOLUT
     mapping.build_map(scans, scenario.true_pose, refs["origin"], refs["resolution"],
                       refs["truth"].shape)
     grid_cpu = (time.process_time() - t0) / data_s
-    managers = _manager(results["cpu"])
+    managers = _manager(results.cpu)
     pipeline_cpu = sum(c["cpu_percent"] for c in managers) / 100.0
     peak = sum(c.get("peak_rss_mb", c["rss_mb"]) for c in managers)
 
@@ -178,7 +179,7 @@ def compare(bag, info, scenario, results, refs, run, outdir, resolutions=RESOLUT
                     "cpu_s_per_s": pipeline_cpu + grid_cpu, "pipeline_cpu_s_per_s": pipeline_cpu,
                     "grid_cpu_s_per_s": grid_cpu, "map_memory_mb": grid_memory_mb(maps[UNIFIED_TOPIC]),
                     "peak_memory_mb": peak, "topic": UNIFIED_TOPIC}, **accuracy(UNIFIED_TOPIC))
-    slam = results.get("slam", {}).get(UNIFIED_TOPIC)
+    slam = results.slam_figures()[0].get(UNIFIED_TOPIC)
     if slam:
         unified["slam"] = {"map_precision": slam["map_precision"], "map_recall": slam["map_recall"],
                            "obstacles_3d_found": slam["obstacles_3d_found"],

@@ -1,11 +1,13 @@
-"""Markdown reports and PNG plots of the evaluation (matplotlib, Agg backend), and the
-figures as JSON (results.json)."""
+"""Markdown reports and PNG plots of the evaluation (matplotlib, Agg backend) from its
+``EvaluationResult``, and figures as JSON (results.json, the experiments' files)."""
 
 import json
 import math
 import os
 
 import numpy as np
+
+from .results import EvaluationResult, NotRun, ran
 
 
 def _plt():
@@ -56,7 +58,7 @@ def dropped_cell(output):
 
 def outputs_table(results):
     rows = []
-    for t, o in sorted(results["outputs"].items()):
+    for t, o in sorted(results.outputs.items()):
         ins = ", ".join("%s %d/%d" % (i["topic"], i["matched"], i["inputs"]) for i in o["inputs"])
         rows.append([t, o["count"], fmt(o["rate_hz"]), fmt(o["latency_median_s"], 1000),
                      fmt(o["latency_p95_s"], 1000),
@@ -74,10 +76,10 @@ def stamps_ahead_note(results):
     receipt on the bag clock minus the stamp; below zero, either the stamps are ahead of
     the bag's clock, or a node stamps its output later than its inputs, or the receipt was
     timed with a stale /clock (measurement)."""
-    outs = [(t, o) for t, o in sorted(results["outputs"].items())
+    outs = [(t, o) for t, o in sorted(results.outputs.items())
             if (o.get("latency_min_s") or 0) < 0]
     ahead = [(t, v["age_min_s"], v.get("age_median_s")) for t, v in
-             sorted(results["inputs"].items()) if (v.get("age_min_s") or 0) < 0]
+             sorted(results.inputs.items()) if (v.get("age_min_s") or 0) < 0]
     if not outs and not ahead:
         return []
     lines = ["**Negative latencies.** Latency is the time of receipt on the bag clock (the "
@@ -118,8 +120,8 @@ ROLE_LABELS = {"manager": "nodelet manager", "loader": "nodelet loader clients",
 def cpu_table(results):
     """Per process and per role: the CPU a robot pays (wall-time replay) beside that under
     rosbag's /clock and the difference (``analysis.cpu_stats``)."""
-    cpu = results["cpu"]
-    summary = results.get("cpu_summary", {})
+    cpu = results.cpu
+    summary = results.cpu_summary
     wall = summary.get("clock") == "wall"
     rows = [[n, fmt(c["cpu_percent"]), fmt(c.get("sim_clock_cpu_percent")),
              fmt(c.get("clock_share_percent")), fmt(c["rss_mb"])] for n, c in sorted(cpu.items())]
@@ -141,7 +143,7 @@ def cpu_table(results):
 
 
 def cpu_section(results):
-    summary = results.get("cpu_summary", {})
+    summary = results.cpu_summary
     lines = ["## CPU", ""]
     if summary.get("clock") == "wall":
         lines.append(
@@ -162,16 +164,16 @@ def cpu_section(results):
             "%.1f s of wall time, also holds rosbag's start delay and the last outputs), under "
             "rosbag's /clock: every ROS process takes it, a robot on wall time does not "
             "(evaluate_bag replays the bag on wall time for the CPU unless --cpu-replay 0%s)." % (
-                results["playback_wall_s"], "; here: " + summary["wall_replay_problem"]
+                results.playback_wall_s, "; here: " + summary["wall_replay_problem"]
                 if summary.get("wall_replay_problem") else ""))
     return lines + ["", cpu_table(results), ""]
 
 
 def accuracy_table(results):
     rows = []
-    for t, a in sorted(results.get("accuracy", {}).items()):
-        if "skipped" in a and isinstance(a["skipped"], str):
-            rows.append([t, "skipped: " + a["skipped"]] + [""] * 7)
+    for t, a in sorted((results.accuracy or {}).items()):
+        if isinstance(a, NotRun):
+            rows.append([t, "skipped: " + a.reason] + [""] * 7)
             continue
         rows.append([t + (" (bag input)" if a.get("input") else ""), a["scans"],
                      "%.2f..%.2f" % tuple(a["z_band"]),
@@ -185,8 +187,7 @@ def accuracy_table(results):
 
 def slam_table(results):
     """SLAM and localization figures per stream, side by side (rows: figures)."""
-    slam = results.get("slam", {})
-    loc = results.get("localization", {})
+    slam, loc = results.slam_figures()
     topics = list(slam)
     rows = []
     for label, section, key, scale, digits in (
@@ -203,21 +204,21 @@ def slam_table(results):
 
 
 def slam_section(results):
-    exp = results.get("slam_experiment")
-    if not exp:
+    exp = results.slam
+    if exp is None:
         return []
     lines = ["## SLAM and localization", ""]
-    if "error" in exp or "skipped" in exp:
-        return lines + ["Not run: %s" % exp.get("error", exp.get("skipped")), ""]
+    if isinstance(exp, NotRun):
+        return lines + ["Not run: %s" % exp.reason, ""]
     lines += ["MRPT's `rbpf-slam` (Rao-Blackwellised particle filter grid SLAM, seed %d) on each "
               "stream with the wheel odometry (one scan per %.1f s at most), its path fitted to "
               "the ground truth by the rigid 2D fit of the paths, its map (the most likely "
               "particle's) by that of the particle's own path; `pf-localization` "
               "on the ground-truth obstacle grid from the true initial pose (RMSE of the "
               "weighted particle mean). Method and reproduction: docs/slam.md." % (
-                  exp["seed"], exp["min_interval_s"]), "", slam_table(results), "",
-              "![SLAM maps](%s)" % exp["figures"]["maps"], "",
-              "![paths](%s)" % exp["figures"]["paths"], ""]
+                  exp.seed, exp.min_interval_s), "", slam_table(results), "",
+              "![SLAM maps](%s)" % exp.figures["maps"], "",
+              "![paths](%s)" % exp.figures["paths"], ""]
     return lines
 
 
@@ -239,10 +240,11 @@ def octomap_table(runs):
 
 
 def octomap_section(res, link="octomap"):
-    """The report's section on the comparison (report.md of evaluate_bag and the demo)."""
-    if not res or "skipped" in res:
+    """The report's section on the comparison (report.md of evaluate_bag and the demo): ``res``
+    is its step (figures, NotRun, or None)."""
+    if not ran(res):
         return ["## The unified scan against OctoMap", "",
-                "Not run: %s" % (res or {}).get("skipped", "no ground truth"), ""]
+                "Not run: %s" % (res.reason if res else "no ground truth"), ""]
     lines = ["## The unified scan against OctoMap", "",
              "OctoMap OcTree from the bag's depth images and lidar scans at the true poses "
              "(`bag_to_octomap`), its map projected from the band %.2f-%.2f m, judged with the "
@@ -262,13 +264,13 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
     plots = make_plots(results, examples, run, outdir)
     lines = ["# %s" % title, "",
              "Bag `%s` (%.1f s, %.1f MB), played with `%s`; pipeline `%s`." % (
-                 results["bag"], results["bag_duration_s"], results["bag_size_bytes"] / 1e6,
-                 " ".join(results["player"]), " ".join(results["launch"])), "",
-             "Evaluation took %.0f s of wall time." % results.get("evaluation_wall_s", 0), ""]
+                 results.bag, results.bag_duration_s, results.bag_size_bytes / 1e6,
+                 " ".join(results.player), " ".join(results.launch)), "",
+             "Evaluation took %.0f s of wall time." % results.evaluation_wall_s, ""]
     lines += ["## Verdict", ""]
-    if results["thresholds"]:
-        for c in results["thresholds"]:
-            lines.append("- %s %s" % ("PASS" if c["ok"] else "**FAIL**", c["check"]))
+    if results.thresholds:
+        for c in results.thresholds:
+            lines.append("- %s %s" % ("PASS" if c.ok else "**FAIL**", c.check))
     else:
         lines.append("No thresholds given.")
     lines += ["", "## Outputs", "",
@@ -279,7 +281,7 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
               "dropped: a merger stamps each output with its newest input's time, so an input "
               "that comes after a newer one is merged into a later output under that stamp.", "",
               outputs_table(results), ""] + stamps_ahead_note(results) + cpu_section(results)
-    if results.get("accuracy"):
+    if results.accuracy:
         lines += ["## Accuracy against the ideal scan", "",
                   "Ground truth: the scenario's ideal scan at the true pose (closest obstacle "
                   "in the band). Error on beams where both see something (nearest of +-1 "
@@ -290,8 +292,8 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
                   "judged in the glass section instead.", "", accuracy_table(results), ""]
     lines += glass_section(results)
     lines += self_filter_section(results)
-    m = results.get("mapping")
-    if m and "skipped" not in m:
+    m = results.mapping
+    if ran(m):
         lines += ["## Mapping at the true poses (paper Fig. 6)", "",
                   "Occupancy grids (%.2f m cells) from each scan stream at the true poses, "
                   "against the ground-truth obstacles of the band %.2f-%.2f m. IoU: occupied "
@@ -310,15 +312,15 @@ def write_report(results, examples, run, outdir, title="Pipeline evaluation"):
                          for n, v in m.items() if isinstance(v, dict) and "iou" in v]),
                   "", "![maps](maps/maps.png)", ""]
     lines += slam_section(results)
-    if "octomap" in results:
-        lines += octomap_section(results["octomap"])
+    if results.octomap is not None:
+        lines += octomap_section(results.octomap)
     lines += ["## Inputs (bag)", "",
               "Age: bag time minus header stamp, i.e. how old a message already was when "
               "recorded; an output's latency includes its inputs' age.", "",
               table(["topic", "type", "messages", "rate Hz", "kB/s", "age median ms"],
                     [[t, v["type"], v["count"], fmt(v["rate_hz"]), fmt(v["bytes_per_s"], 1e-3),
                       fmt(v.get("age_median_s"), 1000)]
-                     for t, v in sorted(results["inputs"].items())]), ""]
+                     for t, v in sorted(results.inputs.items())]), ""]
     if plots:
         lines += ["## Plots", ""] + ["![%s](%s)" % (k, v) for k, v in plots.items()] + [""]
     with open(os.path.join(outdir, "report.md"), "w") as f:
@@ -358,18 +360,18 @@ def make_plots(results, examples, run, outdir):
         fig.savefig(os.path.join(outdir, "latency.png"), dpi=90)
         plt.close(fig)
         files["latency"] = "latency.png"
-    if results["cpu"]:
+    if results.cpu:
         fig, ax = plt.subplots(figsize=(6, 2.8))
-        names = sorted(results["cpu"])
+        names = sorted(results.cpu)
         y = np.arange(len(names))
-        sim = [results["cpu"][n].get("sim_clock_cpu_percent") for n in names]
-        if results.get("cpu_summary", {}).get("clock") == "wall" and None not in sim:
+        sim = [results.cpu[n].get("sim_clock_cpu_percent") for n in names]
+        if results.cpu_summary.get("clock") == "wall" and None not in sim:
             ax.barh(y + 0.2, sim, height=0.4, color="tab:gray", label="under rosbag's /clock")
-            ax.barh(y - 0.2, [results["cpu"][n]["cpu_percent"] for n in names], height=0.4,
+            ax.barh(y - 0.2, [results.cpu[n]["cpu_percent"] for n in names], height=0.4,
                     color="tab:blue", label="on wall time (a robot)")
             ax.legend(fontsize=6)
         else:
-            ax.barh(y, [results["cpu"][n]["cpu_percent"] for n in names], color="tab:blue")
+            ax.barh(y, [results.cpu[n]["cpu_percent"] for n in names], color="tab:blue")
         ax.set_yticks(y)
         ax.set_yticklabels(names)
         ax.set_xlabel("CPU, % of one core")
@@ -465,7 +467,7 @@ def plot_snapshot(snapshot, path):
 
 def self_filter_section(results):
     """Report lines on returns on the robot's own parts (the arm), with and without the filter."""
-    sf = results.get("self_filter")
+    sf = results.self_filter
     if not sf:
         return []
     rows = [[t, v["returns_on_robot"], "n/a" if v["returns_on_robot_unfiltered"] is None
@@ -485,12 +487,12 @@ def self_filter_section(results):
 
 def glass_section(results):
     """Report lines on glass (walls, doors) found with and without the ultrasonic sensors."""
-    g = results.get("glass")
+    g = results.glass
     if not g:
         return []
     rows = [[t, v["glass_beams"], v["scans_with_glass"], fmt(v["found_rate"], 100)] for t, v in sorted(g.items())]
     sonars = [[t, fmt(a["false_rate"], 100, 1), fmt(a["median_error"], 100, 1), a["scans"]]
-              for t, a in sorted(results.get("accuracy", {}).items())
+              for t, a in sorted(results.accuracy_figures().items())
               if "sonar" in t and "false_rate" in a]
     lines = ["## Glass (ultrasonic sensors)", "",
              "Beams of the robot's band whose closest obstacle is a glass pane within %.1f m: lidars and "
@@ -506,8 +508,9 @@ def glass_section(results):
 
 
 def summary_text(res):
-    lines = ["bag %s: %.1f s" % (os.path.basename(res["bag"]), res["bag_duration_s"])]
-    for t, o in sorted(res["outputs"].items()):
+    """The figures evaluate_bag prints, of an ``EvaluationResult``."""
+    lines = ["bag %s: %.1f s" % (os.path.basename(res.bag), res.bag_duration_s)]
+    for t, o in sorted(res.outputs.items()):
         lines.append("  %-28s %5d msgs %6s Hz  latency p95 %6s ms  dropped %s" % (
             t, o["count"], fmt(o["rate_hz"]), fmt(o["latency_p95_s"], 1000),
             ("%d%s" % (o["dropped"], " (%d merged later)" % o["merged_later"] if o.get("merged_later") else ""))
@@ -516,56 +519,55 @@ def summary_text(res):
         lines.append("  negative latencies: stamps ahead of the bag clock (see the report); "
                      "the pipeline's own delay is 'delay after input'")
     lines += cpu_summary_lines(res)
-    for t, a in sorted(res.get("accuracy", {}).items()):
-        if isinstance(a.get("skipped"), str):
-            continue
+    for t, a in sorted(res.accuracy_figures().items()):
         lines.append("  %-28s median error %s cm, p95 %s cm, false %s%%, missed %s%%" % (
             t, fmt(a["median_error"], 100, 2), fmt(a["p95_error"], 100, 1),
             fmt(a["false_rate"], 100, 2), fmt(a["missed_rate"], 100, 1)))
-    for t, v in sorted(res.get("self_filter", {}).items()):
+    for t, v in sorted((res.self_filter or {}).items()):
         lines.append("  %-28s returns on the robot's arm %d (without the self filter %s), "
                      "obstacles near it kept %s%% of %d" % (
                          t, v["returns_on_robot"], "n/a" if v["returns_on_robot_unfiltered"] is None
                          else v["returns_on_robot_unfiltered"], fmt(v["kept_near_robot_percent"]),
                          v["near_robot_obstacles"]))
-    for t, v in sorted(res.get("glass", {}).items()):
+    for t, v in sorted((res.glass or {}).items()):
         lines.append("  %-28s glass found on %s%% of %d glass beams" % (t, fmt(v["found_rate"], 100), v["glass_beams"]))
-    m = res.get("mapping")
-    if m and "skipped" not in m:
+    m = res.mapping
+    if ran(m):
         for n, v in m.items():
             if isinstance(v, dict) and "iou" in v:
                 lines.append("  map from %-19s IoU %s, 3D obstacles found %s%%, false cells %d"
                              % (n, fmt(v["iou"], 1, 2), fmt(v["found_3d"], 100), v["false_cells"]))
-    for t, v in res.get("slam", {}).items():
-        loc = res.get("localization", {}).get(t, {})
+    slam, localization = res.slam_figures()
+    for t, v in slam.items():
+        loc = localization.get(t, {})
         lines.append("  slam on %-19s path RMSE %s m (odometry %s m), map precision %s%%, "
                      "recall %s%%, 3D obstacles found %s%%; localization RMSE %s m" % (
                          t, fmt(v["path_rmse_m"], 1, 3), fmt(v["odometry_rmse_m"], 1, 3),
                          fmt(v["map_precision"], 100), fmt(v["map_recall"], 100),
                          fmt(v["obstacles_3d_found"], 100), fmt(loc.get("rmse_m"), 1, 3)))
-    for r in res.get("octomap", {}).get("runs", []):
+    for r in res.octomap["runs"] if ran(res.octomap) else []:
         lines.append("  %-8s %5.2f m: CPU %s s per s of data, map %s MB, peak %s MB, 3D obstacles "
                      "found %s%%, precision %s%%" % (
                          r["method"], r["resolution_m"], fmt(r["cpu_s_per_s"], 1, 3),
                          fmt(r["map_memory_mb"], 1, 3), fmt(r["peak_memory_mb"], 1, 0),
                          fmt(r["obstacles_3d_found"], 100), fmt(r["map_precision"], 100)))
-    for c in res["thresholds"]:
-        lines.append("  %s %s" % ("PASS" if c["ok"] else "FAIL", c["check"]))
+    for c in res.thresholds:
+        lines.append("  %s %s" % ("PASS" if c.ok else "FAIL", c.check))
     return "\n".join(lines)
 
 
 def cpu_summary_lines(res):
     """The CPU lines of summary_text: total, by role and per process, on wall time when the
     bag was replayed so, and the simulated clock's share."""
-    summary = res.get("cpu_summary", {})
-    total = sum(c["cpu_percent"] for c in res["cpu"].values())
+    summary = res.cpu_summary
+    total = sum(c["cpu_percent"] for c in res.cpu.values())
     wall = summary.get("clock") == "wall"
     roles = ", ".join("%s %s%%" % ("%d %s" % (summary["processes"][r], ROLE_LABELS[r])
                                    if r == "loader" else ROLE_LABELS[r], fmt(summary["by_role"][r]))
                       for r in ROLE_LABELS if summary.get("processes", {}).get(r))
     lines = ["  CPU of the pipeline: %s%% of one core %s (%s)" % (
         fmt(total), "on wall time, as a robot pays it" if wall else "under the simulated clock",
-        ", ".join("%s %s%%" % (n, fmt(c["cpu_percent"])) for n, c in sorted(res["cpu"].items())))]
+        ", ".join("%s %s%%" % (n, fmt(c["cpu_percent"])) for n, c in sorted(res.cpu.items())))]
     if roles:
         lines.append("    by role: " + roles)
     if wall:
@@ -582,7 +584,7 @@ def cpu_summary_lines(res):
 def demo_summary(outdir, timing=""):
     """Key figures of a demo run; also links the CPU experiment from report.md."""
     with open(os.path.join(outdir, "results.json")) as f:
-        res = json.load(f)
+        res = EvaluationResult.from_json(json.load(f))
     lines = ["Demo figures (%s)" % timing if timing else "Demo figures", summary_text(res)]
     cpu_json = os.path.join(outdir, "cpu", "cpu_results.json")
     if os.path.isfile(cpu_json):

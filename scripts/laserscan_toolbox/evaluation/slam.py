@@ -32,6 +32,7 @@ import time
 import numpy as np
 
 from . import mapping
+from .results import NotRun, SlamRun, slam_figures
 
 #: Which topics the experiment compares: (lidar-only stream, unified stream). The unified
 #: stream is the lidars + depth cameras merge without the ultrasonic arcs (those go to the
@@ -338,14 +339,14 @@ def slam_experiment(scans_by_topic, source_bag, scenario, refs, outdir, workdir=
                     topics=DEFAULT_TOPICS, seed=0, min_interval=MIN_INTERVAL,
                     localization=True, log=print):
     """SLAM and localization on each recorded stream; writes slam_maps.png and
-    slam_paths.png into ``outdir`` and returns {"slam": {topic: ...}, "localization":
-    {topic: ...}, "figures": {...}}.
+    slam_paths.png into ``outdir`` and returns a ``SlamRun`` (NotRun when no topic was
+    recorded).
 
     scans_by_topic: {topic: [scan dicts]} (evaluate.Recorder); refs: the dict of
     ``mapping.reference_maps`` (ground-truth grids, reference maps, known-pose maps)."""
     topics = [t for t in topics if scans_by_topic.get(t)]
     if not topics:
-        return {"skipped": "none of the SLAM topics was recorded"}
+        return NotRun("none of the SLAM topics was recorded")
     own = workdir is None
     workdir = workdir or os.path.join(outdir, "slam_work")
     os.makedirs(workdir, exist_ok=True)
@@ -373,11 +374,8 @@ def slam_experiment(scans_by_topic, source_bag, scenario, refs, outdir, workdir=
                "paths": plot_paths(runs, refs, scenario, os.path.join(outdir, "slam_paths.png"))}
     if own:
         shutil.rmtree(workdir, ignore_errors=True)
-    out = {"slam": slam, "figures": figures, "min_interval_s": min_interval, "seed": seed,
-           "tolerance_m": MAP_TOLERANCE}
-    if localization:
-        out["localization"] = loc
-    return out
+    return SlamRun(slam=slam, localization=loc if localization else None, figures=figures,
+                   min_interval_s=min_interval, seed=seed, tolerance_m=MAP_TOLERANCE)
 
 
 def evaluate_slam(run, index, scenario, refs):
@@ -424,13 +422,13 @@ def evaluate_localization(pf, index, scenario):
 
 # ---------------------------------------------------------------- targets
 
-def check_targets(res, targets=TARGETS, lidar_topic=DEFAULT_TOPICS[0],
+def check_targets(run, targets=TARGETS, lidar_topic=DEFAULT_TOPICS[0],
                   unified_topic=DEFAULT_TOPICS[1]):
-    """(ok, text) per target: both streams' SLAM path RMSE, the unified map's precision,
-    its 3D obstacles against the lidar-only map's, localization of the unified stream
-    against the lidar-only one. A target whose figures are missing fails."""
-    slam = res.get("slam", {})
-    loc = res.get("localization", {})
+    """(ok, text) per target of the SLAM step ``run`` (SlamRun, NotRun or None): both
+    streams' SLAM path RMSE, the unified map's precision, its 3D obstacles against the
+    lidar-only map's, localization of the unified stream against the lidar-only one. A target
+    whose figures are missing fails."""
+    slam, loc = slam_figures(run)
     checks = []
 
     def get(section, topic, key):

@@ -18,6 +18,7 @@ import time
 from ..evaluation import octomap_comparison as oc
 from ..evaluation.evaluate import evaluate
 from ..evaluation.report import octomap_table, write_json
+from ..evaluation.results import EvaluationResult, NotRun, ran
 from ..ros.rosrun import RunError
 from .cpu import simulate
 
@@ -38,28 +39,31 @@ def one_point_count(work, n, resolutions, duration, seed, log, attempts=2):
         for attempt in range(attempts):
             res = evaluate(bag, output=work, progress=False, plots=False, log=log,
                            octomap=resolutions)
-            comparison = res.get("octomap", {"skipped": res.get("mapping", {}).get(
-                "skipped", "the bag has no ground truth")})
-            if "skipped" not in comparison:
+            comparison = res.octomap
+            if comparison is None:  # not run: the mapping step said why, or there is no truth
+                comparison = res.mapping if isinstance(res.mapping, NotRun) else NotRun(
+                    "the bag has no ground truth")
+            if ran(comparison):
                 return comparison
             log("%d points per camera, attempt %d: OctoMap comparison skipped: %s"
-                % (n, attempt + 1, comparison["skipped"]))
+                % (n, attempt + 1, comparison.reason))
     finally:
         os.remove(bag)
-    raise RunError("OctoMap comparison skipped: %s" % comparison["skipped"])
+    raise RunError("OctoMap comparison skipped: %s" % comparison.reason)
 
 
-def done_before(work, resolutions, duration, seed):
-    """The "octomap" entry of an earlier run in ``work`` with the same settings, or None."""
+def done_before(work, resolutions, duration):
+    """The "octomap" entry of an earlier run in ``work`` with the same duration and
+    resolutions, or None (results.json holds no seed: --resume is for the same command)."""
     try:
         with open(os.path.join(work, "results.json")) as f:
-            res = json.load(f)
-    except (OSError, ValueError):
+            res = EvaluationResult.from_json(json.load(f))
+    except (OSError, ValueError, TypeError):
         return None
-    comparison = res.get("octomap", {})
-    same = ("runs" in comparison and abs(res.get("bag_duration_s", 0) - duration) < 1.0
+    comparison = res.octomap
+    same = (ran(comparison) and abs(res.bag_duration_s - duration) < 1.0
             and sorted(r["resolution_m"] for r in comparison["runs"] if r["method"] == "octomap")
-            == sorted(resolutions) and res.get("seed", seed) == seed)
+            == sorted(resolutions))
     return comparison if same else None
 
 
@@ -70,7 +74,7 @@ def sweep(outdir, points=POINTS, resolutions=RESOLUTIONS, duration=20.0, seed=0,
     runs, per_point = [], {}
     for n in points:
         work = os.path.join(outdir, "points_%d" % n)
-        comparison = done_before(work, resolutions, duration, seed) if resume else None
+        comparison = done_before(work, resolutions, duration) if resume else None
         if comparison is None:
             comparison = one_point_count(work, n, resolutions, duration, seed, log)
         else:
