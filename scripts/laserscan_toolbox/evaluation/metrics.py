@@ -22,6 +22,8 @@ Definitions (documented in docs/tools.md, used by evaluate_bag and the tests):
 - coverage: fraction of beams in ``mask`` with a return in the output.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 
 
@@ -45,6 +47,21 @@ def _window_stack(values, k, fill):
     return out
 
 
+@dataclass
+class ScanComparison:
+    """One scan against its ideal scan (``compare_scan``), counted over the beams in the mask."""
+    errors: np.ndarray  # range error of each beam where both see something, m
+    beams: int
+    returns: int  # output returns
+    ideal_returns: int  # ideal returns within range_max
+    false: int  # false obstacles
+    missed: int  # missed obstacles
+
+    def summary(self):
+        return summarize(self.errors, self.beams, self.returns, self.ideal_returns, self.false,
+                         self.missed)
+
+
 class ScanStats:
     """Accumulates per-beam outcomes over many scans of one topic."""
 
@@ -58,12 +75,13 @@ class ScanStats:
         self.scans = 0
 
     def add(self, result):
-        self.errors.append(result["errors"])
-        self.beams += result["beams"]
-        self.returns += result["returns"]
-        self.ideal_returns += result["ideal_returns"]
-        self.false += result["false"]
-        self.missed += result["missed"]
+        """Adds one ``ScanComparison``."""
+        self.errors.append(result.errors)
+        self.beams += result.beams
+        self.returns += result.returns
+        self.ideal_returns += result.ideal_returns
+        self.false += result.false
+        self.missed += result.missed
         self.scans += 1
 
     def summary(self):
@@ -94,10 +112,8 @@ def summarize(errors, beams, returns, ideal_returns, false, missed, scans=1):
 
 def compare_scan(output, ideal, tol=0.05, beam_window=1, mask=None, rel_tol=0.0,
                  range_max=np.inf):
-    """Per-scan outcomes of ``output`` against ``ideal`` (see module docstring).
-
-    Returns a dict with the error array and counts; ``summarize`` / ``ScanStats`` turn
-    those into figures.
+    """Per-scan outcomes of ``output`` against ``ideal`` (see module docstring): a
+    ``ScanComparison``, which ``summarize`` / ``ScanStats`` turn into figures.
     """
     out = np.asarray(output, dtype=float)
     ide = np.asarray(ideal, dtype=float)
@@ -128,24 +144,15 @@ def compare_scan(output, ideal, tol=0.05, beam_window=1, mask=None, rel_tol=0.0,
         false = out_ret & m & ~(nearest_ideal <= out_v + tol + rel_tol * out_v)
         in_range = ide_ret & (ide_v <= range_max)
         missed = in_range & m & ~(nearest_out <= ide_v + tol + rel_tol * ide_v)
-    return {
-        "errors": errors,
-        "beams": int(m.sum()),
-        "returns": int((out_ret & m).sum()),
-        "ideal_returns": int((in_range & m).sum()),
-        "false": int(false.sum()),
-        "missed": int(missed.sum()),
-        "false_mask": false,
-        "missed_mask": missed,
-    }
+    return ScanComparison(errors=errors, beams=int(m.sum()), returns=int((out_ret & m).sum()),
+                          ideal_returns=int((in_range & m).sum()), false=int(false.sum()),
+                          missed=int(missed.sum()))
 
 
 def scan_metrics(output, ideal, tol=0.05, beam_window=1, mask=None, rel_tol=0.0,
                  range_max=np.inf):
     """Figures for one scan (median / p95 error, false / missed rates, coverage)."""
-    r = compare_scan(output, ideal, tol, beam_window, mask, rel_tol, range_max)
-    return summarize(r["errors"], r["beams"], r["returns"], r["ideal_returns"],
-                     r["false"], r["missed"])
+    return compare_scan(output, ideal, tol, beam_window, mask, rel_tol, range_max).summary()
 
 
 def angular_mask(n, angle_min, angle_increment, lo, hi):
