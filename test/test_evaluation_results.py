@@ -7,6 +7,7 @@ SLAM experiment keeps its three entries; the JSON reads back into the same typed
 import json
 import os
 import re
+from dataclasses import replace as dataclass_replace
 
 import numpy as np
 import pytest
@@ -117,3 +118,19 @@ def test_numpy_figures_are_written_as_json_numbers(tmp_path):
     r = EvaluationResult(bag_duration_s=np.float64(6.0), cpu={"m": {"cpu_percent": np.float32(12.5)}})
     out = json_round_trip(r, tmp_path)
     assert out["bag_duration_s"] == 6.0 and out["cpu"]["m"]["cpu_percent"] == 12.5
+
+
+def test_the_octomap_sweep_resumes_from_a_results_json_with_the_same_settings(tmp_path):
+    """octomap_comparison --resume reads an earlier results.json back (``done_before``)."""
+    from laserscan_toolbox.experiments.octomap_sweep import done_before
+    runs = [{"method": "unified", "resolution_m": 0.05}, {"method": "octomap", "resolution_m": 0.05},
+            {"method": "octomap", "resolution_m": 0.1}]
+    octomap = {"runs": runs, "targets": []}
+    result = with_ground_truth(octomap=octomap)
+    report.write_json(dataclass_replace(result, bag_duration_s=20.2).to_json(), str(tmp_path / "results.json"))
+    assert done_before(str(tmp_path), (0.05, 0.1), 20.0) == octomap
+    assert done_before(str(tmp_path), (0.05,), 20.0) is None  # other resolutions
+    assert done_before(str(tmp_path), (0.05, 0.1), 30.0) is None  # another bag length
+    report.write_json(dataclass_replace(result, octomap=NotRun("no depth")).to_json(), str(tmp_path / "results.json"))
+    assert done_before(str(tmp_path), (0.05, 0.1), 60.0) is None  # not run: run it again
+    assert done_before(str(tmp_path / "none"), (0.05, 0.1), 60.0) is None
