@@ -106,6 +106,7 @@ def test_figures_of_steps_that_ran_leave_out_those_that_did_not():
     assert with_ground_truth().slam_figures() == (SLAM, LOCALIZATION)
     # a dict of figures is never mistaken for a NotRun, even one with a single key
     assert NotRun.from_json({"skipped_scans": 3}) is None and NotRun.from_json({"skipped": 3}) is None
+    assert NotRun.from_json({"skipped": "frame 'x' is upside down", "input": True}) == NotRun("frame 'x' is upside down")
     assert not ran(None) and not ran(NotRun("x")) and ran({})
 
 

@@ -24,11 +24,13 @@ class NotRun:
 
     @staticmethod
     def from_json(value):
-        """The NotRun a JSON value spells, or None when it holds figures."""
-        if isinstance(value, dict) and len(value) == 1:
-            (key, reason), = value.items()
-            if key in ("skipped", "error") and isinstance(reason, str):
-                return NotRun(reason, failed=key == "error")
+        """The NotRun a JSON value spells, or None when it holds figures (which never have a
+        "skipped" or "error" key; a results.json of before the types could hold a bag input's
+        "input" flag beside "skipped")."""
+        if isinstance(value, dict):
+            for key in ("skipped", "error"):
+                if isinstance(value.get(key), str):
+                    return NotRun(value[key], failed=key == "error")
         return None
 
 
