@@ -235,10 +235,10 @@ __attribute__((always_inline)) inline void depthChunkKernel(const std::uint8_t* 
   {                                                                                                      \
     chunkKernel<T, HOLE, SELF, STEP>(p, col_step, xo, yo, zo, n, f, c);                                  \
   }
-#define DFSC_KERNELS(NAME, T, STEP)                \
-  DFSC_KERNEL(NAME, T, false, false, STEP)         \
-  DFSC_KERNEL(NAME##Hole, T, true, false, STEP)    \
-  DFSC_KERNEL(NAME##Self, T, false, true, STEP)    \
+#define DFSC_KERNELS(NAME, T, STEP)             \
+  DFSC_KERNEL(NAME, T, false, false, STEP)      \
+  DFSC_KERNEL(NAME##Hole, T, true, false, STEP) \
+  DFSC_KERNEL(NAME##Self, T, false, true, STEP) \
   DFSC_KERNEL(NAME##HoleSelf, T, true, true, STEP)
 DFSC_KERNELS(kernelFloat, float, 0)
 DFSC_KERNELS(kernelFloat16, float, 16)
@@ -252,10 +252,10 @@ DFSC_KERNELS(kernelDouble, double, 0)
   {                                                                                                                 \
     depthChunkKernel<D, HOLE, SELF>(p, col_step, du, dv, kx, ky, unit, n, f, c);                                    \
   }
-#define DFSC_DEPTH_KERNELS(NAME, D)               \
-  DFSC_DEPTH_KERNEL(NAME, D, false, false)        \
-  DFSC_DEPTH_KERNEL(NAME##Hole, D, true, false)   \
-  DFSC_DEPTH_KERNEL(NAME##Self, D, false, true)   \
+#define DFSC_DEPTH_KERNELS(NAME, D)             \
+  DFSC_DEPTH_KERNEL(NAME, D, false, false)      \
+  DFSC_DEPTH_KERNEL(NAME##Hole, D, true, false) \
+  DFSC_DEPTH_KERNEL(NAME##Self, D, false, true) \
   DFSC_DEPTH_KERNEL(NAME##HoleSelf, D, true, true)
 DFSC_DEPTH_KERNELS(kernelDepthMm, std::uint16_t)
 DFSC_DEPTH_KERNELS(kernelDepthMetres, float)
@@ -385,11 +385,10 @@ void Projector::runDepth(const DepthImageView& v, const Frame& f, std::vector<fl
 {
   const bool mm = v.encoding == DepthEncoding::UInt16Millimetres;
   const bool self = f.self != nullptr;
-  const DepthKernel kernel =
-    mm ? pickVariant<DepthKernel>(kHole, self, kernelDepthMm, kernelDepthMmHole, kernelDepthMmSelf,
-                                  kernelDepthMmHoleSelf)
-       : pickVariant<DepthKernel>(kHole, self, kernelDepthMetres, kernelDepthMetresHole, kernelDepthMetresSelf,
-                                  kernelDepthMetresHoleSelf);
+  const DepthKernel kernel = mm ? pickVariant<DepthKernel>(kHole, self, kernelDepthMm, kernelDepthMmHole,
+                                                           kernelDepthMmSelf, kernelDepthMmHoleSelf)
+                                : pickVariant<DepthKernel>(kHole, self, kernelDepthMetres, kernelDepthMetresHole,
+                                                           kernelDepthMetresSelf, kernelDepthMetresHoleSelf);
   const std::size_t col_step = static_cast<std::size_t>(mm ? 2 : 4) * f.column_stride;
   // As depth_image_proc: metres per unit in float, the factors unit / f in double, then float.
   const float unit = mm ? 0.001f : 1.0f;

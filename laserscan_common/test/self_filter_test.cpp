@@ -202,8 +202,8 @@ TEST(SelfFilterShapes, ChunkTestHoldsOnBothSidesOfZeroAndBesideNaNPoints)
                      shape(lc::ShapeKind::kSphere, { 0.15, 0.15, 0.15 }, 0.0, "ball") },
                    "shapes");
   // "at_zero" spans x in [0, 0.2] exactly: its lower bound is 0.
-  f.setFramePoses({ pose({ 0.1, 0.0, 0.0 }, 0, 0, 0), pose({ -0.6, -0.1, -0.1 }, 0, 0, 0.2),
-                    pose({ -0.3, 0.05, 0.0 }, 0, 0, 0) });
+  f.setFramePoses(
+    { pose({ 0.1, 0.0, 0.0 }, 0, 0, 0), pose({ -0.6, -0.1, -0.1 }, 0, 0, 0.2), pose({ -0.3, 0.05, 0.0 }, 0, 0, 0) });
   const std::size_t block = lc::SelfFilter::kMarkBlock;
   std::vector<float> xs, ys, zs;
   std::vector<std::int32_t> active;
