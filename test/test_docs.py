@@ -95,6 +95,8 @@ COMMANDS = {
     "cmake --build build --target multi_laserscan_merger_benchmark -j2": CHECKED,
     "taskset -c 1 build/devel/lib/depth_filter_scan_converter/depth_filter_scan_converter_benchmark "
     "--benchmark_repetitions=5": CHECKED,
+    "taskset -c 1 build/devel/lib/depth_filter_scan_converter/depth_filter_scan_converter_benchmark "
+    "--benchmark_filter=runArm --benchmark_repetitions=5 --benchmark_enable_random_interleaving=true": CHECKED,
     "taskset -c 1 build/devel/lib/multi_laserscan_merger/multi_laserscan_merger_benchmark "
     "--benchmark_repetitions=5": CHECKED,
     # --- tests

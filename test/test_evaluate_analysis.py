@@ -58,6 +58,36 @@ def test_a_mergers_own_counts_tell_dropped_inputs_from_inputs_merged_later():
     assert report.dropped_cell({"inputs": [], "dropped": 0, "dropped_fraction": float("nan")}) == "n/a"
 
 
+def test_a_cameras_frames_are_counted_by_the_merger_on_its_converters_scan():
+    """A camera's frames reach the merger as its converter's scans (the depth image's stamps).
+    Some come out under their own stamp, the others in later outputs: the merger's counts on the
+    scan topic (all received, none dropped) make them merged later, not dropped. Where the
+    converter lost 4 frames (its scan is recorded without them), those are dropped."""
+    cam = np.arange(0.0, 10.0, 1 / 14.0)
+    sonar = np.arange(0.02, 10.0, 0.1)
+    bag = {"/cam/depth/image": {"stamps": cam.tolist()}, "/cam/depth/camera_info": {"stamps": cam.tolist()},
+           "/sonar/range": {"stamps": sonar.tolist()}}
+    out = np.concatenate([cam[::3], sonar])  # a third of the frames under their own stamp
+    diagnostics = {"/merger: source cam": {"topic": "/cam/scan", "merged scan topic": "/merged_scan",
+                                           "scans received": str(len(cam) - 4), "scans dropped": "0"}}
+    counts = analysis.merger_counts(diagnostics, "/merged_scan")
+    drivers = analysis.match_inputs(out, bag)
+    assert {d["topic"] for d in drivers} == {"/cam/depth/camera_info", "/sonar/range"}
+    lost = {4, 5, 7, 8}  # never converted, so never on /cam/scan (none of them on the output)
+    records = {"/cam/scan": {"stamp": [s for i, s in enumerate(cam) if i not in lost]},
+               "/merged_scan": {"stamp": out.tolist()}}
+    sources = analysis.merger_sources(drivers, counts, bag, records)
+    assert sources == {"/cam/depth/camera_info": "/cam/scan"}
+    by_topic = {d["topic"]: d for d in analysis.account_with_merger(drivers, counts, sources)}
+    cam_driver = by_topic["/cam/depth/camera_info"]
+    assert cam_driver["inputs"] == len(cam) and cam_driver["matched"] == len(cam[::3])
+    assert (cam_driver["dropped"], cam_driver["merged_later"]) == (4, len(cam) - len(cam[::3]) - 4)
+    assert by_topic["/sonar/range"]["dropped"] == 0
+    # Without the scan's record, or with only a third of the frames on it, nothing is mapped.
+    assert analysis.merger_sources(drivers, counts, bag, {}) == {}
+    assert analysis.merger_sources(drivers, counts, bag, {"/cam/scan": {"stamp": cam[::3].tolist()}}) == {}
+
+
 def test_static_pose_chains_transforms():
     q_yaw = (0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4))  # 90 degrees
     tf = [("base_link", "mount", (1.0, 0.0, 0.2), q_yaw),

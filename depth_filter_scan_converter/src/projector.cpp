@@ -92,6 +92,7 @@ struct Projector::Frame
   bool hole;                                 // hole detection on, and the camera above the floor
   bool cluster;                              // beams read the closest cluster's mean (a range noise model is set)
   const laserscan_common::SelfFilter* self;  // nullptr: no self filter
+  float self_lo[3], self_hi[3];              // the self filter's shapes' bounding box (reference frame)
 };
 
 Projector::Projector(const Parameters& params)
@@ -121,14 +122,17 @@ struct alignas(64) Chunk
 {
   float xs[kChunk], ys[kChunk], zs[kChunk], r2s[kChunk];
   std::int32_t bins[kChunk];
+  std::int32_t near_self[kChunk];  // with a self filter: 1 if the point would be projected and lies in its bounding box
 };
 
 // Pass 2 of the projection, on n points already gathered into c.xs/ys/zs (camera frame):
 // transform, band / hole / range / angle tests, beam index. A rejected point gets an infinite
 // squared range and a scratch slot after the last beam, so that pass 3 never keeps it.
 // xs/ys/zs are overwritten with the point in the reference frame (for the filtered cloud).
+// kSelf: near_self marks the points to test against the self filter's shapes, here where the
+// point is in registers (a pass of its own over the chunk cost as much as the shape tests).
 // Non-short-circuit & and selects only: no branch, so the compiler vectorizes it.
-template <bool kHole>
+template <bool kHole, bool kSelf>
 __attribute__((always_inline)) inline void transformChunk(std::uint32_t n, const Projector::Frame& f, Chunk& c)
 {
   const float inf = std::numeric_limits<float>::infinity();
@@ -165,6 +169,9 @@ __attribute__((always_inline)) inline void transformChunk(std::uint32_t n, const
     fb = fb < last_beam ? fb : last_beam;
     c.bins[i] = ok ? static_cast<std::int32_t>(fb) : f.beams + static_cast<std::int32_t>(i % kScratchSlots);
     c.r2s[i] = ok ? r2 : inf;
+    if (kSelf)
+      c.near_self[i] = ok & (xr >= f.self_lo[0]) & (xr <= f.self_hi[0]) & (yr >= f.self_lo[1]) & (yr <= f.self_hi[1]) &
+                       (zr >= f.self_lo[2]) & (zr <= f.self_hi[2]);
     c.xs[i] = xr;
     c.ys[i] = yr;
     c.zs[i] = zr;
@@ -175,7 +182,7 @@ __attribute__((always_inline)) inline void transformChunk(std::uint32_t n, const
 // the strided buffer (any point_step, float or double), then transformChunk.
 // kStep > 0 fixes the distance between points at compile time (the common 16- and 32-byte
 // layouts), which lets the compiler vectorize the gather as well.
-template <typename T, bool kHole, std::size_t kStep>
+template <typename T, bool kHole, bool kSelf, std::size_t kStep>
 __attribute__((always_inline)) inline void chunkKernel(const std::uint8_t* p, std::size_t col_step, std::uint32_t xo,
                                                        std::uint32_t yo, std::uint32_t zo, std::uint32_t n,
                                                        const Projector::Frame& f, Chunk& c)
@@ -187,7 +194,7 @@ __attribute__((always_inline)) inline void chunkKernel(const std::uint8_t* p, st
     c.ys[i] = load<T>(p + i * step + yo);
     c.zs[i] = load<T>(p + i * step + zo);
   }
-  transformChunk<kHole>(n, f, c);
+  transformChunk<kHole, kSelf>(n, f, c);
 }
 
 // Passes 1 and 2 for n depth pixels of one row starting at p, col_step bytes apart: the point
@@ -195,7 +202,7 @@ __attribute__((always_inline)) inline void chunkKernel(const std::uint8_t* p, st
 // kx = unit / fx, ky = unit / fy, unit = metres per depth unit. The same float operations in the
 // same order as depth_image_proc::convert, so a scan from the image equals the scan from
 // point_cloud_xyz's cloud bit for bit. No depth (0, NaN, Inf) gives a NaN point.
-template <typename D, bool kHole>
+template <typename D, bool kHole, bool kSelf>
 __attribute__((always_inline)) inline void depthChunkKernel(const std::uint8_t* p, std::size_t col_step,
                                                             const float* du, float dv, float kx, float ky, float unit,
                                                             std::uint32_t n, const Projector::Frame& f, Chunk& c)
@@ -210,7 +217,7 @@ __attribute__((always_inline)) inline void depthChunkKernel(const std::uint8_t* 
     c.ys[i] = valid ? dv * d * ky : nan;
     c.zs[i] = valid ? d * unit : nan;
   }
-  transformChunk<kHole>(n, f, c);
+  transformChunk<kHole, kSelf>(n, f, c);
 }
 
 // The kernels are compiled twice and picked at load time by the CPU (ifunc): AVX2+FMA where
@@ -220,54 +227,56 @@ __attribute__((always_inline)) inline void depthChunkKernel(const std::uint8_t* 
 #else
 #define DFSC_CLONES
 #endif
-#define DFSC_KERNEL(NAME, T, HOLE, STEP)                                                                 \
+// Each kernel in four variants: with or without hole detection, with or without the self
+// filter's mark (kernels without it pay nothing for it).
+#define DFSC_KERNEL(NAME, T, HOLE, SELF, STEP)                                                           \
   DFSC_CLONES void NAME(const std::uint8_t* p, std::size_t col_step, std::uint32_t xo, std::uint32_t yo, \
                         std::uint32_t zo, std::uint32_t n, const Projector::Frame& f, Chunk& c)          \
   {                                                                                                      \
-    chunkKernel<T, HOLE, STEP>(p, col_step, xo, yo, zo, n, f, c);                                        \
+    chunkKernel<T, HOLE, SELF, STEP>(p, col_step, xo, yo, zo, n, f, c);                                  \
   }
-DFSC_KERNEL(kernelFloat, float, false, 0)
-DFSC_KERNEL(kernelFloatHole, float, true, 0)
-DFSC_KERNEL(kernelFloat16, float, false, 16)
-DFSC_KERNEL(kernelFloat16Hole, float, true, 16)
-DFSC_KERNEL(kernelFloat32, float, false, 32)
-DFSC_KERNEL(kernelFloat32Hole, float, true, 32)
-DFSC_KERNEL(kernelDouble, double, false, 0)
-DFSC_KERNEL(kernelDoubleHole, double, true, 0)
+#define DFSC_KERNELS(NAME, T, STEP)             \
+  DFSC_KERNEL(NAME, T, false, false, STEP)      \
+  DFSC_KERNEL(NAME##Hole, T, true, false, STEP) \
+  DFSC_KERNEL(NAME##Self, T, false, true, STEP) \
+  DFSC_KERNEL(NAME##HoleSelf, T, true, true, STEP)
+DFSC_KERNELS(kernelFloat, float, 0)
+DFSC_KERNELS(kernelFloat16, float, 16)
+DFSC_KERNELS(kernelFloat32, float, 32)
+DFSC_KERNELS(kernelDouble, double, 0)
+#undef DFSC_KERNELS
 #undef DFSC_KERNEL
-#define DFSC_DEPTH_KERNEL(NAME, D, HOLE)                                                                            \
+#define DFSC_DEPTH_KERNEL(NAME, D, HOLE, SELF)                                                                      \
   DFSC_CLONES void NAME(const std::uint8_t* p, std::size_t col_step, const float* du, float dv, float kx, float ky, \
                         float unit, std::uint32_t n, const Projector::Frame& f, Chunk& c)                           \
   {                                                                                                                 \
-    depthChunkKernel<D, HOLE>(p, col_step, du, dv, kx, ky, unit, n, f, c);                                          \
+    depthChunkKernel<D, HOLE, SELF>(p, col_step, du, dv, kx, ky, unit, n, f, c);                                    \
   }
-DFSC_DEPTH_KERNEL(kernelDepthMm, std::uint16_t, false)
-DFSC_DEPTH_KERNEL(kernelDepthMmHole, std::uint16_t, true)
-DFSC_DEPTH_KERNEL(kernelDepthMetres, float, false)
-DFSC_DEPTH_KERNEL(kernelDepthMetresHole, float, true)
+#define DFSC_DEPTH_KERNELS(NAME, D)             \
+  DFSC_DEPTH_KERNEL(NAME, D, false, false)      \
+  DFSC_DEPTH_KERNEL(NAME##Hole, D, true, false) \
+  DFSC_DEPTH_KERNEL(NAME##Self, D, false, true) \
+  DFSC_DEPTH_KERNEL(NAME##HoleSelf, D, true, true)
+DFSC_DEPTH_KERNELS(kernelDepthMm, std::uint16_t)
+DFSC_DEPTH_KERNELS(kernelDepthMetres, float)
+#undef DFSC_DEPTH_KERNELS
 #undef DFSC_DEPTH_KERNEL
 
-// The self filter on a chunk after pass 2: the points that would be projected (finite r2) and
-// lie inside the shapes' bounding box are tested against the shapes (almost always none: one
-// vectorized pass over the chunk); those inside a shape get kSelfR2. Cloned like the kernels,
-// so that the inlined shape tests vectorize too.
+// The self filter on a chunk after pass 2: the points the kernel marked near_self (they would
+// be projected and lie inside the shapes' bounding box) are tested against the shapes; those
+// inside a shape get kSelfR2. Cloned like the kernels, so that the inlined shape tests vectorize
+// too.
 DFSC_CLONES void removeSelfPoints(const laserscan_common::SelfFilter& filter, std::uint32_t n, Chunk& c)
 {
-  const laserscan_common::Bounds& b = filter.bounds();
-  const float lx = b.lo.x(), ly = b.lo.y(), lz = b.lo.z(), hx = b.hi.x(), hy = b.hi.y(), hz = b.hi.z();
-  alignas(64) std::int32_t active[kChunk];
-  alignas(64) std::int32_t inside[kChunk];
-  const float inf = std::numeric_limits<float>::infinity();
   std::int32_t any = 0;
   for (std::uint32_t i = 0; i < n; ++i)
-  {
-    const float x = c.xs[i], y = c.ys[i], z = c.zs[i];
-    const std::int32_t a = (c.r2s[i] < inf) & (x >= lx) & (x <= hx) & (y >= ly) & (y <= hy) & (z >= lz) & (z <= hz);
-    active[i] = a;
+    any |= c.near_self[i];
+  if (!any)
+    return;
+  alignas(64) std::int32_t inside[kChunk];
+  for (std::uint32_t i = 0; i < n; ++i)
     inside[i] = 0;
-    any |= a;
-  }
-  if (!any || !filter.markInside(n, c.xs, c.ys, c.zs, active, inside))
+  if (!filter.markInside(n, c.xs, c.ys, c.zs, c.near_self, inside))
     return;
   for (std::uint32_t i = 0; i < n; ++i)
     c.r2s[i] = inside[i] ? kSelfR2 : c.r2s[i];
@@ -316,21 +325,30 @@ __attribute__((always_inline)) inline void keepClosest(const Chunk& c, std::uint
 using Kernel = void (*)(const std::uint8_t*, std::size_t, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t,
                         const Projector::Frame&, Chunk&);
 
+// The variant of a kernel for hole detection and the self filter.
+template <typename K>
+K pickVariant(bool hole, bool self, K plain, K with_hole, K with_self, K with_hole_self)
+{
+  return hole ? (self ? with_hole_self : with_hole) : (self ? with_self : plain);
+}
+
 // Chosen once per cloud: no per-point branch on the layout.
 template <typename T, bool kHole>
-Kernel pickKernel(std::size_t col_step)
+Kernel pickKernel(std::size_t col_step, bool self)
 {
   if constexpr (std::is_same_v<T, float>)
   {
     if (col_step == 16)
-      return kHole ? kernelFloat16Hole : kernelFloat16;
+      return pickVariant<Kernel>(kHole, self, kernelFloat16, kernelFloat16Hole, kernelFloat16Self,
+                                 kernelFloat16HoleSelf);
     if (col_step == 32)
-      return kHole ? kernelFloat32Hole : kernelFloat32;
-    return kHole ? kernelFloatHole : kernelFloat;
+      return pickVariant<Kernel>(kHole, self, kernelFloat32, kernelFloat32Hole, kernelFloat32Self,
+                                 kernelFloat32HoleSelf);
+    return pickVariant<Kernel>(kHole, self, kernelFloat, kernelFloatHole, kernelFloatSelf, kernelFloatHoleSelf);
   }
   else
   {
-    return kHole ? kernelDoubleHole : kernelDouble;
+    return pickVariant<Kernel>(kHole, self, kernelDouble, kernelDoubleHole, kernelDoubleSelf, kernelDoubleHoleSelf);
   }
 }
 }  // namespace
@@ -344,7 +362,7 @@ void Projector::run(const CloudView& v, const Frame& f, std::vector<float>* kept
   float* const best = best_r2_.data();
   std::uint32_t* const best_index = best_index_.data();
   const std::size_t col_step = static_cast<std::size_t>(v.point_step) * f.column_stride;
-  const Kernel kernel = pickKernel<T, kHole>(col_step);
+  const Kernel kernel = pickKernel<T, kHole>(col_step, f.self != nullptr);
 
   for (std::uint32_t r = 0; r < v.height; r += f.row_stride)
   {
@@ -366,8 +384,11 @@ template <bool kHole, bool kKeep>
 void Projector::runDepth(const DepthImageView& v, const Frame& f, std::vector<float>* kept)
 {
   const bool mm = v.encoding == DepthEncoding::UInt16Millimetres;
-  const DepthKernel kernel =
-    mm ? (kHole ? kernelDepthMmHole : kernelDepthMm) : (kHole ? kernelDepthMetresHole : kernelDepthMetres);
+  const bool self = f.self != nullptr;
+  const DepthKernel kernel = mm ? pickVariant<DepthKernel>(kHole, self, kernelDepthMm, kernelDepthMmHole,
+                                                           kernelDepthMmSelf, kernelDepthMmHoleSelf)
+                                : pickVariant<DepthKernel>(kHole, self, kernelDepthMetres, kernelDepthMetresHole,
+                                                           kernelDepthMetresSelf, kernelDepthMetresHoleSelf);
   const std::size_t col_step = static_cast<std::size_t>(mm ? 2 : 4) * f.column_stride;
   // As depth_image_proc: metres per unit in float, the factors unit / f in double, then float.
   const float unit = mm ? 0.001f : 1.0f;
@@ -449,6 +470,11 @@ Projector::Frame Projector::start(const Eigen::Isometry3d& camera_to_reference, 
   f.hole = p.band.hole_detection && t.z() > p.band.floor_height;
   f.cluster = p.noise.clusterRanges();
   f.self = self_filter && !self_filter->empty() && !self_filter->bounds().empty() ? self_filter : nullptr;
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    f.self_lo[axis] = f.self ? f.self->bounds().lo(axis) : 0.0f;
+    f.self_hi[axis] = f.self ? f.self->bounds().hi(axis) : 0.0f;
+  }
   recorded_points_ = 0;
   return f;
 }

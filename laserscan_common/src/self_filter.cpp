@@ -80,6 +80,11 @@ void SelfFilter::setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T
     const Eigen::Vector3d extent = reference_T_shape.linear().cwiseAbs() * h;
     p.bounds.lo = (centre - extent).cast<float>();
     p.bounds.hi = (centre + extent).cast<float>();
+    for (int axis = 0; axis < 3; ++axis)
+    {
+      p.key_lo[axis] = orderedKey(p.bounds.lo(axis));
+      p.key_hi[axis] = orderedKey(p.bounds.hi(axis));
+    }
     bounds_.extend(p.bounds);
   }
 }

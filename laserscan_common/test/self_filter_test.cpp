@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -188,6 +189,57 @@ TEST(SelfFilterShapes, ChunkTestAgreesWithThePointTestAndSkipsInactivePoints)
     }
   }
   EXPECT_GT(expected_inside, 20u);  // the sample does hit the shapes
+  EXPECT_LT(expected_inside, n / 2);
+}
+
+TEST(SelfFilterShapes, ChunkTestHoldsOnBothSidesOfZeroAndBesideNaNPoints)
+{
+  // markBlock compares the box of a block's points with the shapes' boxes in integer keys:
+  // negative coordinates, -0 on a shape's bound at 0 and NaN (inactive) neighbours must not
+  // make it skip a shape. Runs of points along x, as in a row of a depth image.
+  lc::SelfFilter f({ shape(lc::ShapeKind::kBox, { 0.1, 0.1, 0.1 }, 0.0, "at_zero"),
+                     shape(lc::ShapeKind::kBox, { 0.1, 0.2, 0.2 }, 0.0, "negative"),
+                     shape(lc::ShapeKind::kSphere, { 0.15, 0.15, 0.15 }, 0.0, "ball") },
+                   "shapes");
+  // "at_zero" spans x in [0, 0.2] exactly: its lower bound is 0.
+  f.setFramePoses(
+    { pose({ 0.1, 0.0, 0.0 }, 0, 0, 0), pose({ -0.6, -0.1, -0.1 }, 0, 0, 0.2), pose({ -0.3, 0.05, 0.0 }, 0, 0, 0) });
+  const std::size_t block = lc::SelfFilter::kMarkBlock;
+  std::vector<float> xs, ys, zs;
+  std::vector<std::int32_t> active;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> start(-1.0f, 0.4f), lateral(-0.12f, 0.12f);
+  for (int run = 0; run < 200; ++run)
+  {
+    const float x0 = start(rng), y = lateral(rng), z = lateral(rng);
+    for (std::size_t i = 0; i < block; ++i)
+    {
+      const bool nan = i % 7 == 3;
+      xs.push_back(nan ? std::numeric_limits<float>::quiet_NaN() : x0 + 0.004f * static_cast<float>(i));
+      ys.push_back(y), zs.push_back(z);
+      active.push_back(nan ? 0 : 1);
+    }
+  }
+  // A block whose one active point is -0, on "at_zero"'s lower bound (inside it).
+  for (std::size_t i = 0; i < block; ++i)
+  {
+    xs.push_back(i == 5 ? -0.0f : 5.0f), ys.push_back(0.0f), zs.push_back(0.0f);
+    active.push_back(i == 5 ? 1 : 0);
+  }
+  ASSERT_TRUE(f.contains(-0.0f, 0.0f, 0.0f));
+  const std::size_t n = xs.size();
+  std::vector<std::int32_t> inside(n, 0);
+  f.markInside(n, xs.data(), ys.data(), zs.data(), active.data(), inside.data());
+  std::size_t expected_inside = 0, negative_inside = 0;
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    const bool want = active[i] && f.contains(xs[i], ys[i], zs[i]);
+    expected_inside += want ? 1 : 0;
+    negative_inside += want && xs[i] < -0.2f ? 1 : 0;
+    EXPECT_EQ(inside[i] != 0, want) << i << ": " << xs[i] << " " << ys[i] << " " << zs[i];
+  }
+  EXPECT_NE(inside[n - block + 5], 0);
+  EXPECT_GT(negative_inside, 100u);  // the runs do reach the shapes on the negative side
   EXPECT_LT(expected_inside, n / 2);
 }
 

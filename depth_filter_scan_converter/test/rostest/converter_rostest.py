@@ -19,6 +19,8 @@ with an unusable header (dropped in place) as read in place and not the fourth, 
 none.
 """
 import math
+import os
+import sys
 import threading
 import unittest
 
@@ -29,6 +31,10 @@ import tf2_ros
 from geometry_msgs.msg import TransformStamped
 from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "..", "..", "scripts"))
+from laserscan_toolbox.ros.rosrun import wait_connected  # noqa: E402
 
 CAMERA_HEIGHT = 0.8
 WALL_X = 2.0
@@ -122,13 +128,9 @@ class ConverterTest(unittest.TestCase):
         # Subscribing to the outputs is what makes the lazy converter subscribe to cloud_in.
         self.scan_sub = rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=20)
         self.cloud_sub = rospy.Subscriber("filtered_cloud", PointCloud2, self.on_filtered, queue_size=20)
-        while self.cloud_pub.get_num_connections() == 0 and not rospy.is_shutdown():
-            self.assertLess(rospy.Time.now(), deadline, "the converter never subscribed to cloud_in")
-            rospy.sleep(0.05)
         # The converter's tf listener must be connected too, or the first tilt is lost.
-        while self.tf_pub.pub_tf.get_num_connections() == 0 and not rospy.is_shutdown():
-            self.assertLess(rospy.Time.now(), deadline, "the converter's tf listener never connected")
-            rospy.sleep(0.05)
+        self.assertTrue(wait_connected([self.cloud_pub, self.tf_pub.pub_tf], timeout=30.0),
+                        "the converter never subscribed to cloud_in and /tf")
         rospy.sleep(0.2)  # connections are made in the background; let them settle
 
     def on_scan(self, msg):

@@ -9,6 +9,8 @@ no return on the forearm (without the filter the forearm's beams read about 0.95
 forearm's own direction, the wall behind it (seen above and below the cube).
 """
 import math
+import os
+import sys
 import threading
 import unittest
 
@@ -18,6 +20,10 @@ import rostest
 import tf2_ros
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "..", "..", "scripts"))
+from laserscan_toolbox.ros.rosrun import wait_connected  # noqa: E402
 
 CAMERA_HEIGHT = 0.5
 WALL_X = 2.0
@@ -98,12 +104,8 @@ class SelfFilterTest(unittest.TestCase):
         self.cloud_pub = rospy.Publisher("cloud_in", PointCloud2, queue_size=5)
         self.tf_pub = tf2_ros.TransformBroadcaster()
         self.scan_sub = rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=20)
-        deadline = rospy.Time.now() + rospy.Duration(30.0)
-        while (self.cloud_pub.get_num_connections() == 0 or self.tf_pub.pub_tf.get_num_connections() == 0) and (
-            not rospy.is_shutdown()
-        ):
-            self.assertLess(rospy.Time.now(), deadline, "the converter never subscribed to cloud_in and /tf")
-            rospy.sleep(0.05)
+        self.assertTrue(wait_connected([self.cloud_pub, self.tf_pub.pub_tf], timeout=30.0),
+                        "the converter never subscribed to cloud_in and /tf")
         rospy.sleep(0.2)  # connections are made in the background; let them settle
 
     def on_scan(self, msg):

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
@@ -60,6 +61,17 @@ struct Bounds
   }
 };
 
+/// A float as an int32 that orders as the floats do (-0 taken as +0; not for NaN): min/max
+/// reductions over these vectorize, float ones do not without -ffinite-math-only (which the
+/// converters' NaN tests forbid).
+__attribute__((always_inline)) inline std::int32_t orderedKey(float v)
+{
+  const float normalized = v + 0.0f;  // -0 -> +0: equal floats get equal keys
+  std::int32_t bits;
+  std::memcpy(&bits, &normalized, sizeof bits);
+  return bits ^ ((bits >> 31) & 0x7fffffff);
+}
+
 /// One shape at its current pose, in the form the point test needs (float, reference -> shape).
 /// Every kind is one formula: |q| <= h per axis and radial_weight * (qx^2 + qy^2) +
 /// axial_weight * qz^2 <= radius2, where q is the point in the shape's frame; a box has both
@@ -71,6 +83,8 @@ struct PosedShape
   float h[3];  ///< padded half extents
   float radius2, radial_weight, axial_weight;
   Bounds bounds;  ///< of the padded shape, in the reference frame
+  /// bounds.lo and bounds.hi as orderedKey (x, y, z), for markBlock's integer box test.
+  std::int32_t key_lo[3], key_hi[3];
 };
 
 /// The test of one point against one posed shape (the whole filter is the OR over shapes).
@@ -121,8 +135,8 @@ public:
   /// For n points (structure of arrays): inside[i] = 1 if point i is inside a padded shape,
   /// else left as it is; points with active[i] == 0 are not tested (active[i] is 0 or 1). Returns whether any point was
   /// inside. Inline, so that a caller's vectorized (target_clones) function inlines it with its
-  /// own instruction set; per block of kMarkBlock points, a shape is tested only when one of the
-  /// block's active points lies in its bounding box.
+  /// own instruction set; per block of kMarkBlock points, a shape is tested only when its
+  /// bounding box meets the box around the block's active points.
   inline bool markInside(std::size_t n, const float* xs, const float* ys, const float* zs, const std::int32_t* active,
                          std::int32_t* inside) const;
 
@@ -138,30 +152,38 @@ private:
 };
 
 /// markInside on one block of m points (m = kMarkBlock known at compile time for full blocks:
-/// the loops then have no remainder).
+/// the loops then have no remainder). The box around the block's active points (one vectorized
+/// pass, integer min/max reductions) is compared with each shape's box in scalar code, and the
+/// exact test runs only for the shapes whose box it meets: a per-shape test over the block's
+/// points would cost a horizontal reduction and a branch per shape and block.
 __attribute__((always_inline)) inline std::int32_t markBlock(const std::vector<PosedShape>& shapes, std::size_t m,
                                                              const float* bx, const float* by, const float* bz,
                                                              const std::int32_t* ba, std::int32_t* bi)
 {
-  std::int32_t block_active = 0;
+  constexpr std::int32_t kMax = std::numeric_limits<std::int32_t>::max();
+  constexpr std::int32_t kMin = std::numeric_limits<std::int32_t>::min();
+  std::int32_t lx = kMax, ly = kMax, lz = kMax, hx = kMin, hy = kMin, hz = kMin;
   for (std::size_t i = 0; i < m; ++i)
-    block_active |= ba[i];
-  if (!block_active)
-    return 0;
+  {
+    // Inactive points (maybe NaN) give keys that change neither minimum nor maximum.
+    const std::int32_t on = -ba[i];  // all bits set when active
+    const std::int32_t kx = orderedKey(bx[i]), ky = orderedKey(by[i]), kz = orderedKey(bz[i]);
+    lx = std::min(lx, (kx & on) | (kMax & ~on));
+    ly = std::min(ly, (ky & on) | (kMax & ~on));
+    lz = std::min(lz, (kz & on) | (kMax & ~on));
+    hx = std::max(hx, (kx & on) | (kMin & ~on));
+    hy = std::max(hy, (ky & on) | (kMin & ~on));
+    hz = std::max(hz, (kz & on) | (kMin & ~on));
+  }
+  if (lx > hx)
+    return 0;  // no active point
   std::int32_t any = 0;
   for (const PosedShape& s : shapes)
   {
-    // Locals, so that the compiler keeps them in registers across the vectorized loops.
-    const float lx = s.bounds.lo.x(), ly = s.bounds.lo.y(), lz = s.bounds.lo.z();
-    const float hx = s.bounds.hi.x(), hy = s.bounds.hi.y(), hz = s.bounds.hi.z();
-    std::int32_t in_box = 0;
-    for (std::size_t i = 0; i < m; ++i)
-    {
-      const float x = bx[i], y = by[i], z = bz[i];
-      in_box |= ba[i] & (x >= lx) & (x <= hx) & (y >= ly) & (y <= hy) & (z >= lz) & (z <= hz);
-    }
-    if (!in_box)
+    if ((s.key_lo[0] > hx) | (s.key_hi[0] < lx) | (s.key_lo[1] > hy) | (s.key_hi[1] < ly) | (s.key_lo[2] > hz) |
+        (s.key_hi[2] < lz))
       continue;
+    // Locals, so that the compiler keeps them in registers across the vectorized loop.
     const float r0 = s.r[0], r1 = s.r[1], r2 = s.r[2], r3 = s.r[3], r4 = s.r[4], r5 = s.r[5];
     const float r6 = s.r[6], r7 = s.r[7], r8 = s.r[8], t0 = s.t[0], t1 = s.t[1], t2 = s.t[2];
     const float h0 = s.h[0], h1 = s.h[1], h2 = s.h[2];
@@ -187,9 +209,9 @@ __attribute__((always_inline)) inline bool SelfFilter::markInside(std::size_t n,
                                                                   std::int32_t* inside) const
 {
   // Points come in runs that lie close together (a row of a depth image): per block of
-  // kMarkBlock points, a shape is tested only when one of the block's active points lies in its
-  // bounding box, so that a point near one link is tested against that link, not all of them.
-  // Every loop is branch-free and vectorizes (integer OR reductions only).
+  // kMarkBlock points, a shape is tested only when its bounding box meets the box around the
+  // block's active points, so that a point near one link is tested against that link, not all
+  // of them. Every loop is branch-free and vectorizes (integer reductions only).
   std::int32_t any = 0;
   std::size_t b0 = 0;
   for (; b0 + kMarkBlock <= n; b0 += kMarkBlock)

@@ -100,15 +100,41 @@ def merger_counts(diagnostics, output_topic):
     return counts
 
 
-def account_with_merger(drivers, counts):
-    """Where the merger reports on a driver's topic (one of its sources), splits the inputs whose
-    stamp never reappears into those really dropped (never received by the merger, or dropped by
-    it: malformed, no transform) and those merged into a later output under a newer input's stamp
-    (a merger stamps its output with its newest input's time). Changes drivers in place."""
+def merger_sources(drivers, counts, bag_topics, records):
+    """{driver topic: the merger's source topic that carries its messages}: the topic itself where
+    the merger reads the bag's topic (a lidar's scan), else the recorded output of the pipeline
+    that the merger reads and whose stamps are the driver's (a camera's scan carries its depth
+    image's stamps, a range converter's arc its reading's; a converter that lost some inputs
+    still matches, at least half of them): what the merger never received then counts as
+    dropped. Drivers matched to none are left out."""
+    sources = {}
     for drv in drivers:
-        if drv["topic"] not in counts:
+        if drv["topic"] in counts:
+            sources[drv["topic"]] = drv["topic"]
             continue
-        received, dropped = counts[drv["topic"]]
+        inputs = set(_stamp_key(bag_topics[drv["topic"]]["stamps"]).tolist())
+        for topic in sorted(counts):
+            recorded = set(_stamp_key([st for st in records.get(topic, {}).get("stamp", [])
+                                       if st is not None]).tolist())
+            if recorded and recorded <= inputs and 2 * len(recorded) >= len(inputs):
+                sources[drv["topic"]] = topic
+                break
+    return sources
+
+
+def account_with_merger(drivers, counts, sources=None):
+    """Where the merger reports on a driver's topic (one of its sources; `sources` maps a driver
+    topic to the merger's source topic where they differ, see merger_sources), splits the inputs
+    whose stamp never reappears into those really dropped (never received by the merger, or
+    dropped by it: malformed, no transform) and those merged into a later output under a newer
+    input's stamp (a merger stamps its output with its newest input's time). Changes drivers in
+    place."""
+    sources = sources or {}
+    for drv in drivers:
+        source = sources.get(drv["topic"], drv["topic"])
+        if source not in counts:
+            continue
+        received, dropped = counts[source]
         lost = max(drv["inputs"] - received, 0) + dropped
         drv["merged_later"] = max(drv["dropped"] - lost, 0)
         drv["dropped"] = min(drv["dropped"], lost)
@@ -155,8 +181,10 @@ def output_stats(run, bag_info):
         rs = metrics.rate_stats(stamps)
         lat = metrics.latency_stats(recv, stamps)
         span = (max(d["recv_wall"]) - min(d["recv_wall"])) if len(d["recv_wall"]) > 1 else 0
-        drivers = account_with_merger(match_inputs(stamps, bag_info["topics"]),
-                                      merger_counts(run.get("diagnostics", {}), topic))
+        drivers = match_inputs(stamps, bag_info["topics"])
+        counts = merger_counts(run.get("diagnostics", {}), topic)
+        drivers = account_with_merger(drivers, counts,
+                                      merger_sources(drivers, counts, bag_info["topics"], run["records"]))
         delay = delay_after_input(recv, stamps, drivers, bag_info["topics"])
         dropped = sum(x["dropped"] for x in drivers)
         inputs = sum(x["inputs"] for x in drivers)

@@ -231,8 +231,8 @@ def own_node_name():
 
 
 def wait_connected(subscribers, timeout=5.0):
-    """Waits until every rospy subscriber is connected to its publisher (wall time: with
-    use_sim_time the clock stands still before playback)."""
+    """Waits until every rospy subscriber (or publisher) has a connection; True if they all do
+    within timeout (wall time: with use_sim_time the clock stands still before playback)."""
     deadline = time.time() + timeout
     while time.time() < deadline:
         if all(s.get_num_connections() > 0 for s in subscribers):
