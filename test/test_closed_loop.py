@@ -91,7 +91,7 @@ def test_a_box_ahead_is_hit_when_reached_and_clearance_is_its_distance():
     assert mon.check(_parts_at(robot, 2.0, 5.0, 0.0), 0.0) == pytest.approx(2.6 - 2.37)
     assert mon.onsets == []
     assert mon.check(_parts_at(robot, 2.24, 5.0, 0.0), 0.1) == 0.0
-    assert mon.onsets == [("crate", "2d", 0.1)]
+    assert mon.onsets == [("crate", "2d", 0.1, 0.0)]
     mon.check(_parts_at(robot, 2.25, 5.0, 0.0), 0.2)  # still touching: the same contact
     assert len(mon.onsets) == 1
 
@@ -101,7 +101,7 @@ def test_a_table_top_above_the_base_hits_the_arm_and_counts_as_3d():
     mon, robot = _monitor(boxes=[top])
     # Under the top: the body (to 0.60 m) passes, the stowed arm (0.62..0.90 m) does not.
     assert mon.check(_parts_at(robot, 5.0, 5.0, 0.0), 0.0) == 0.0
-    assert mon.onsets == [("table/top", "3d", 0.0)]
+    assert mon.onsets == [("table/top", "3d", 0.0, 0.0)]
     # A top above the arm would be no obstacle at all (nothing overlaps its height).
     high, _ = _monitor(boxes=[Box("shelf/board", (5.0, 5.0, 1.2), (1.2, 0.8, 0.04))])
     assert high.check(_parts_at(robot, 5.0, 5.0, 0.0), 0.0) == math.inf
@@ -118,7 +118,7 @@ def test_a_walking_person_is_hit_where_they_are_at_the_time():
     assert mon.check(parts, 2.0) == pytest.approx(min(4.76 - 2.2, math.hypot(8.0 - 5.37, 8.0 - 5.24) - 0.1))
     assert mon.onsets == []
     assert mon.check(parts, 4.6) == 0.0  # at y 4.6: its 0.2 m radius reaches the body's side
-    assert mon.onsets == [("walker", "2d", 4.6)]
+    assert mon.onsets == [("walker", "2d", 4.6, 0.0)]  # it walked into the robot
 
 
 # ----- runs ---------------------------------------------------------------------------------------
@@ -162,6 +162,8 @@ def test_driving_under_the_table_counts_a_3d_collision_and_the_record_round_trip
     assert rec.reached and rec.time_to_goal_s == pytest.approx(rec.simulated_s - rec.goal_delay_s)
     names = [c["name"] for c in rec.collided_with]
     assert "table2/top" in names and not any("leg" in n for n in names)
+    top = next(c for c in rec.collided_with if c["name"] == "table2/top")
+    assert 0.1 < top["robot_speed"] <= 0.6  # the robot drove into it
     assert rec.collisions_3d == sum(1 for c in rec.collided_with if c["kind"] == "3d") >= 1
     assert rec.min_clearance_m == 0.0
     assert rec.path_length_m == pytest.approx(2.8 - 0.25, abs=0.02)
@@ -180,4 +182,8 @@ def test_a_bad_configuration_names_its_field():
     with pytest.raises(ValueError, match="route"):
         cl.ClosedLoopSim(cl.ClosedLoopConfig(route="moon"))
     with pytest.raises(ValueError, match="sensor_rate"):
-        cl.ClosedLoopSim(cl.ClosedLoopConfig(sensor_rate=7.0))
+        cl.ClosedLoopSim(cl.ClosedLoopConfig(sensor_rate=7.0))  # 142.86 ms: not on the 20 ms grid
+    with pytest.raises(ValueError, match="control_rate"):
+        cl.ClosedLoopSim(cl.ClosedLoopConfig(control_rate=0.0))
+    with pytest.raises(ValueError, match="timeout_s"):
+        cl.ClosedLoopSim(cl.ClosedLoopConfig(timeout_s=-1.0))

@@ -77,21 +77,30 @@ class ClosedLoopConfig:
             raise ValueError(f"route: {self.route!r} is not one of {', '.join(sorted(ROUTES))}")
         if self.camera_points is not None and not 100 <= self.camera_points <= 2_000_000:
             raise ValueError(f"camera_points: {self.camera_points} is not within 100..2000000")
-        step = self.step_ns
-        for name in ("control_rate", "sensor_rate"):
-            period = NS / getattr(self, name)
-            if not getattr(self, name) > 0 or abs(period / step - round(period / step)) > 1e-9 \
-                    or round(period / step) < 1:
-                raise ValueError(f"{name}: {getattr(self, name)} Hz is not 1 / (a whole number of "
-                                 f"simulation steps of {step / 1e6:g} ms)")
-        if not self.goal_delay_s >= 0 or not self.timeout_s > 0 or not self.goal_tolerance_m > 0:
-            raise ValueError("goal_delay_s must be >= 0, timeout_s and goal_tolerance_m > 0")
+        if not 1.0 <= self.odom_rate <= 1000.0:
+            raise ValueError(f"odom_rate: {self.odom_rate} Hz is not within 1..1000")
+        self.steps_per("control_rate")
+        self.steps_per("sensor_rate")
+        if not self.goal_delay_s >= 0:
+            raise ValueError(f"goal_delay_s: {self.goal_delay_s} is negative")
+        for name in ("timeout_s", "goal_tolerance_m"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name}: {getattr(self, name)} is not positive")
 
     @property
     def step_ns(self):
-        if not self.odom_rate > 0 or NS % round(NS / self.odom_rate):
-            raise ValueError(f"odom_rate: {self.odom_rate} Hz is not a whole number of ns per step")
+        """The simulation step (ns): 1 / odom_rate."""
         return int(round(NS / self.odom_rate))
+
+    def steps_per(self, name):
+        """Simulation steps per period of the rate ``name`` (control_rate, sensor_rate); a
+        ValueError unless it is a whole number (the rate's times must be on the step grid)."""
+        rate = getattr(self, name)
+        steps = NS / rate / self.step_ns if rate > 0 else 0.0
+        if round(steps) < 1 or abs(steps - round(steps)) > 1e-9:
+            raise ValueError(f"{name}: {rate} Hz is not 1 / (a whole number of simulation steps of "
+                             f"{self.step_ns / 1e6:g} ms)")
+        return int(round(steps))
 
 
 @dataclass
@@ -99,8 +108,8 @@ class RunRecord:
     """One closed-loop run (what the navigation experiment reads, JSON via to_json/from_json).
 
     Times are simulated seconds.  trajectory: [t, x, y, yaw] at every control step (t relative
-    to the start, map frame).  collided_with: one entry per contact onset {name, kind, t}, kind
-    "3d" (no lidar plane cuts the obstacle), "glass" or "2d"."""
+    to the start, map frame).  collided_with: one entry per contact onset {name, kind, t,
+    robot_speed}, kind "3d" (no lidar plane cuts the obstacle), "glass" or "2d"."""
     route: str
     seed: int
     points_per_camera: int
@@ -242,7 +251,8 @@ class CollisionMonitor:
         self.rect_z1 = np.array([r[1][2] + r[2][2] / 2 for r in rects], float)
         self.rect_z1[self.hole_from:] = 0.0  # a hole reaches up to the floor, where the base stands
         names = [r[0] for r in rects]
-        kinds = [kind(z0, z1) for z0, z1 in zip(self.rect_z0[:self.glass_from], self.rect_z1[:self.glass_from])]
+        kinds = [kind(z0, z1) for z0, z1 in zip(self.rect_z0[:self.glass_from],
+                                                self.rect_z1[:self.glass_from])]
         kinds += ["glass"] * len(world.glass) + ["3d"] * len(world.holes)
         names += [c.name for c in world.cylinders] + [p.name for p in world.people]
         kinds += [kind(c.z0, c.z1) for c in world.cylinders] + [kind(0.0, p.height) for p in world.people]
@@ -276,12 +286,13 @@ class CollisionMonitor:
         d_cyl = np.where(zc, d_cyl, np.inf).min(axis=0)
         return np.concatenate([d_rect, d_cyl])
 
-    def check(self, parts, rel):
-        """Record the contacts that begin at relative time rel; returns the clearance (m, the
+    def check(self, parts, rel, speed=0.0):
+        """Record the contacts that begin at relative time rel (with the robot's speed then, m/s:
+        0 when a person walked into a robot standing still); returns the clearance (m, the
         distance to the closest obstacle, 0 in contact)."""
         d = self.distances(parts, rel)
         touching = d <= 0.0
-        self.onsets += [(self.names[i], self.kinds[i], float(rel))
+        self.onsets += [(self.names[i], self.kinds[i], float(rel), float(speed))
                         for i in np.flatnonzero(touching & ~self.touching)]
         self.touching = touching
         return float(d.min())
@@ -340,16 +351,18 @@ class ClosedLoopSim:
         self.odom_twist = (0.0, 0.0, 0.0)
         self.monitor = CollisionMonitor(self.world, self.robot)
         self.step_ns = config.step_ns
-        self.control_every = int(round(NS / config.control_rate / self.step_ns))
-        self.sensor_every = int(round(NS / config.sensor_rate / self.step_ns))
+        self.control_every = config.steps_per("control_rate")
+        self.sensor_every = config.steps_per("sensor_rate")
         self.goal_step = int(math.ceil(config.goal_delay_s * NS / self.step_ns / self.control_every)) \
             * self.control_every
         self.start_ns = int(round(DEFAULT_START_TIME * NS))
         self.k = 0
         self.cmd = (0.0, 0.0, 0.0)
-        self.rays = {C.name: raycast.pixel_rays(C.width, C.height, *C.intrinsics()) for C in self.robot.cameras}
+        self.rays = {C.name: raycast.pixel_rays(C.width, C.height, *C.intrinsics())
+                     for C in self.robot.cameras}
         self.body = {L.name: self.scenario.body_ranges(L) for L in self.robot.lidars}
-        self.record_ = RunRecord(config.route, config.seed, self.robot.cameras[0].width * self.robot.cameras[0].height,
+        cam = self.robot.cameras[0]
+        self.run_record = RunRecord(config.route, config.seed, cam.width * cam.height,
                                  min_clearance_m=math.inf, goal_delay_s=self.goal_step * self.step_ns / NS)
         self.done = False
         self._wall = time.monotonic()
@@ -387,12 +400,13 @@ class ClosedLoopSim:
                       (b.vx, b.vy, b.w), goal=self.goal if self.k == self.goal_step else None)
         if self.k % self.sensor_every == 0:
             sc, rng = self.scenario, self.rng
-            frame.lidars = {L.name: sc.lidar_scan(L, rel, rng, self.body[L.name], pose=pose) for L in self.robot.lidars}
+            frame.lidars = {L.name: sc.lidar_scan(L, rel, rng, self.body[L.name], pose=pose)
+                            for L in self.robot.lidars}
             frame.sonars = {S.name: sc.sonar_range(S, rel, rng, pose=pose) for S in self.robot.sonars}
             frame.depth = {C.name: sc.depth_image(C, rel, rng, self.rays[C.name], pose=pose)
                            for C in self.robot.cameras}
         if frame.control:
-            self.record_.trajectory.append((rel,) + tuple(float(v) for v in pose))
+            self.run_record.trajectory.append((rel,) + tuple(float(v) for v in pose))
         return frame
 
     def command(self, vx, vy, w):
@@ -408,13 +422,14 @@ class ClosedLoopSim:
         fwd, lat, dth = self.base.step(self.cmd, dt)
         self.odom_twist = self.odometry.step(fwd, dth, dt, self.rng, lateral=lat)
         self.k += 1
-        rec, rel = self.record_, self.rel
-        clearance = self.monitor.check(self.parts(), rel)
+        rec, rel = self.run_record, self.rel
+        clearance = self.monitor.check(self.parts(), rel, math.hypot(self.base.vx, self.base.vy))
         if self.k > self.goal_step:  # path and clearance count from the goal on
             rec.path_length_m += math.hypot(self.base.x - x0, self.base.y - y0)
             rec.min_clearance_m = min(rec.min_clearance_m, clearance)
             since_goal = (self.k - self.goal_step) * self.step_ns / NS
-            if math.hypot(self.base.x - self.goal[0], self.base.y - self.goal[1]) <= self.config.goal_tolerance_m:
+            left = math.hypot(self.base.x - self.goal[0], self.base.y - self.goal[1])
+            if left <= self.config.goal_tolerance_m:
                 rec.reached, rec.time_to_goal_s, self.done = True, since_goal, True
             elif since_goal >= self.config.timeout_s:
                 rec.timed_out, self.done = True, True
@@ -423,8 +438,9 @@ class ClosedLoopSim:
             rec.trajectory.append((rel,) + tuple(float(v) for v in self.pose))
 
     def record(self):
-        rec = self.record_
-        rec.collided_with = [{"name": n, "kind": k, "t": t} for n, k, t in self.monitor.onsets]
+        rec = self.run_record
+        rec.collided_with = [{"name": n, "kind": k, "t": t, "robot_speed": v}
+                             for n, k, t, v in self.monitor.onsets]
         rec.collisions = len(rec.collided_with)
         rec.collisions_3d = sum(1 for c in rec.collided_with if c["kind"] == "3d")
         rec.wall_s = time.monotonic() - self._wall

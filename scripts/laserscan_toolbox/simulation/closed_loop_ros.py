@@ -112,6 +112,10 @@ def run(config, depth_output="image", step_topic=None, state_topic=None, wait_fo
     if depth_output not in DEPTH_OUTPUTS:
         raise ValueError(f"depth_output: {depth_output!r} is not one of {', '.join(DEPTH_OUTPUTS)}")
     sim = ClosedLoopSim(config)
+    if step_topic and sim.control_every % sim.sensor_every:
+        # The navigator steps at t_k once it has data stamped t_k: every control step needs sensors.
+        raise ValueError(f"sensor_rate: {config.sensor_rate} Hz is not a multiple of control_rate "
+                         f"{config.control_rate} Hz (lockstep needs data at every control step)")
     sc, robot = sim.scenario, sim.robot
     rospy.set_param("/use_sim_time", True)
     rospy.init_node("closed_loop_simulator", disable_signals=True)
@@ -205,9 +209,9 @@ def run(config, depth_output="image", step_topic=None, state_topic=None, wait_fo
                     with answers.cond:  # answers of past steps are not needed again
                         answers.steps = {s: v for s, v in answers.steps.items() if s > frame.t_ns + 1000}
                 else:
-                    sim.record_.lockstep_timeouts += 1
-                    log(f"closed loop: no {step_topic} for t = {frame.t:.3f} within {lockstep_timeout} s wall; "
-                        "the command is held (the run is no longer repeatable)")
+                    sim.run_record.lockstep_timeouts += 1
+                    log(f"closed loop: no {step_topic} for t = {frame.t:.3f} within {lockstep_timeout} "
+                        "s wall; the command is held (the run is no longer repeatable)")
             else:
                 sim.command(*answers.cmd_vel)
         if not step_topic:  # free running: simulated time at wall pace

@@ -385,7 +385,8 @@ class Scenario:
                 elif name in lidars:
                     L = lidars[name]
                     rel = sched[name][k]
-                    bag.write(TOPICS[name], self.lidar_msg(L, t0 + rel, self.lidar_scan(L, rel, rng, body[name])), bt)
+                    ranges = self.lidar_scan(L, rel, rng, body[name])
+                    bag.write(TOPICS[name], self.lidar_msg(L, t0 + rel, ranges), bt)
                 elif name in sonars:
                     S = sonars[name]
                     rel = sched[name][k]
