@@ -17,7 +17,7 @@ import time
 
 
 from .closed_loop import NS, ClosedLoopSim, depth_points
-from .scenario import FRAMES, TOPICS
+from .scenario import FRAMES, TOPICS, stamped
 
 DEPTH_OUTPUTS = ("image", "cloud", "both")
 GOAL_TOPIC = "move_base_simple/goal"
@@ -71,9 +71,7 @@ class _Answers:
 def _cloud_msg(cam, t, depth, rays):
     from sensor_msgs.msg import PointCloud2, PointField
     pts = depth_points(depth, rays)
-    m = PointCloud2()
-    m.header.stamp = t
-    m.header.frame_id = cam.optical_frame
+    m = stamped(PointCloud2(), t, cam.optical_frame)
     m.height, m.width = depth.shape
     m.fields = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1)
                 for i, n in enumerate("xyz")]
@@ -167,9 +165,8 @@ def run(config, depth_output="image", step_topic=None, state_topic=None, wait_fo
         frame = sim.sense()
         t = stamp(frame.t_ns)
         if frame.goal is not None:
-            g = PoseStamped()
             # Stamped at the previous step, whose tf (map -> odom) the navigator already has.
-            g.header.stamp, g.header.frame_id = stamp(frame.t_ns - sim.step_ns), FRAMES["map"]
+            g = stamped(PoseStamped(), stamp(frame.t_ns - sim.step_ns), FRAMES["map"])
             g.pose.position.x, g.pose.position.y = frame.goal[:2]
             (g.pose.orientation.x, g.pose.orientation.y, g.pose.orientation.z,
              g.pose.orientation.w) = quat_from_yaw(frame.goal[2])

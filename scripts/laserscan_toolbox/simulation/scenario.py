@@ -61,6 +61,14 @@ FRAMES = {"map": "map", "odom": "odom", "base": "base_link"}
 DEFAULT_START_TIME = 1000.0
 
 
+def stamped(msg, t, frame):
+    """``msg`` with its header stamped t (float s or rospy.Time) in ``frame``."""
+    from ..ros import bagio
+    msg.header.stamp = bagio.stamp(t)
+    msg.header.frame_id = frame
+    return msg
+
+
 class Scenario:
     """A fully determined simulation: the same parameters give the same bag."""
 
@@ -422,11 +430,8 @@ class Scenario:
     def lidar_msg(self, lidar, t, ranges, swept=True):
         """sensor_msgs/LaserScan of ``lidar`` stamped t (beams swept over the scan time, or
         all measured at t: ``swept`` False)."""
-        from ..ros import bagio
         from sensor_msgs.msg import LaserScan
-        m = LaserScan()
-        m.header.stamp = bagio.stamp(t)
-        m.header.frame_id = lidar.frame
+        m = stamped(LaserScan(), t, lidar.frame)
         angles, inc = self._lidar_angles(lidar)
         m.angle_min, m.angle_max, m.angle_increment = float(angles[0]), float(angles[-1]), inc
         m.scan_time = 1.0 / lidar.rate
@@ -438,11 +443,8 @@ class Scenario:
     @staticmethod
     def sonar_msg(sonar, t, reading):
         """sensor_msgs/Range of ``sonar`` stamped t."""
-        from ..ros import bagio
         from sensor_msgs.msg import Range
-        m = Range()
-        m.header.stamp = bagio.stamp(t)
-        m.header.frame_id = sonar.frame
+        m = stamped(Range(), t, sonar.frame)
         m.radiation_type = Range.ULTRASOUND
         m.field_of_view = sonar.field_of_view
         m.min_range, m.max_range = sonar.min_range, sonar.max_range
@@ -452,11 +454,8 @@ class Scenario:
     @staticmethod
     def depth_msg(cam, t, depth):
         """sensor_msgs/Image (16UC1, mm, 0 = no depth) of a depth frame (metres) stamped t."""
-        from ..ros import bagio
         from sensor_msgs.msg import Image
-        img = Image()
-        img.header.stamp = bagio.stamp(t)
-        img.header.frame_id = cam.optical_frame
+        img = stamped(Image(), t, cam.optical_frame)
         img.height, img.width = cam.height, cam.width
         img.encoding = "16UC1"
         img.is_bigendian = 0
