@@ -22,6 +22,8 @@ from .scenario import FRAMES, TOPICS, stamped
 
 DEPTH_OUTPUTS = ("image", "cloud", "both")
 GOAL_TOPIC = "move_base_simple/goal"
+#: The navigator's ~state values after which it does not move again (the run ends there).
+FINAL_STATES = ("reached", "blocked")
 #: Control steps in a row without the navigator's answer after which the run is abandoned.
 MAX_MISSED_STEPS = 3
 
@@ -228,6 +230,11 @@ def run(config, depth_output="image", step_topic=None, state_topic=None, wait_fo
                 sim.command(*answers.cmd_vel)
         if not step_topic:  # free running: simulated time at wall pace
             time.sleep(max(0.0, wall0 + frame.rel - time.monotonic()))
+        if frame.control and sim.k > sim.goal_step and answers.state in FINAL_STATES:
+            # The navigator has stopped for good: its robot stands still until the timeout. (Its
+            # state comes apart from ~step: the run may end one control step later or sooner.)
+            sim.end(answers.state)
+            break
         sim.advance()
     clock.publish(Clock(clock=stamp(sim.t_ns)))
     rec = sim.record()
