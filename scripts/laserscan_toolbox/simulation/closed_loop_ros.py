@@ -17,7 +17,7 @@ import threading
 import time
 
 
-from .closed_loop import NS, ClosedLoopSim, depth_points
+from .closed_loop import ClosedLoopSim, depth_points
 from .scenario import FRAMES, TOPICS, stamped
 
 DEPTH_OUTPUTS = ("image", "cloud", "both")
