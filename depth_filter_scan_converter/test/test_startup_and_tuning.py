@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from laserscan_toolbox.ros.rosrun import OutputLines
+from laserscan_toolbox.ros.rosrun import OutputLines, stop_process
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHIPPED = os.path.join(PKG, "config", "depth_filter_scan_converter.yaml")
@@ -290,3 +290,29 @@ def test_self_filter_without_a_robot_description_stops_the_node(ros_env):
     out, _ = p.communicate(timeout=20)
     assert p.returncode != 0
     assert "'robot_description': is empty or not set" in out, out
+
+
+def test_a_clock_at_the_end_of_ros_time_does_not_end_the_node(ros_env):
+    """diagnostic_updater schedules its next update at now() + 1 s: with a (simulated) clock within
+    1 s of 2^32 s ros::Time throws, and out of the diagnostics timer that ended the process (a
+    whole nodelet manager). The status is skipped with a warning instead."""
+    subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=ros_env, check=True)
+    try:
+        load_params(ros_env, "conv_end")
+        p = start(ros_env, "conv_end")
+        node = OutputLines(p)
+        # running first (the updater's constructor does the same arithmetic: a node started in
+        # the last second of ROS time stops at once)
+        assert wait_advertised(ros_env, "/conv_end", "/scan", p), node.stop()
+        clock = subprocess.Popen(["rostopic", "pub", "/clock", "rosgraph_msgs/Clock",
+                                  "{clock: {secs: 4294967295, nsecs: 500000000}}"], env=ros_env,
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        try:
+            warned = node.wait_for("diagnostics not published", "out of dual 32-bit range")
+        finally:
+            stop_process(clock)
+        alive = p.poll() is None
+        out = node.stop()
+    finally:
+        subprocess.run(["rosparam", "delete", "/use_sim_time"], env=ros_env)
+    assert warned and alive and p.returncode == 0, out

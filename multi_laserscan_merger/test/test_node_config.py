@@ -675,3 +675,26 @@ def test_one_sources_warning_hides_no_other_sources_or_mergers_in_a_manager(ros_
     # Still throttled per source and fault: the burst is not one warning per scan.
     front = [w for w in warnings if "/merger_sa: source 'front'" in w and ranges_fault in w]
     assert 1 <= len(front) < burst, warnings
+
+
+def test_a_clock_at_the_end_of_ros_time_does_not_end_the_node(ros_env):
+    # diagnostic_updater schedules its next update at now() + 1 s: with a (simulated) clock within
+    # 1 s of 2^32 s ros::Time throws, and out of the diagnostics timer that ended the process (a
+    # whole nodelet manager). The status is skipped with a warning instead.
+    subprocess.run(['rosparam', 'set', '/use_sim_time', 'true'], env=ros_env, check=True)
+    try:
+        set_params(ros_env, 'merger_end', 'odom_topic: ""\nsources: [{name: front, topic: end/scan}]')
+        node = start(ros_env, 'merger_end')
+        wait_started(node)
+        clock = subprocess.Popen(['rostopic', 'pub', '/clock', 'rosgraph_msgs/Clock',
+                                  '{clock: {secs: 4294967295, nsecs: 500000000}}'], env=ros_env,
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        try:
+            warned = node.wait_for('diagnostics not published', 'out of dual 32-bit range')
+        finally:
+            stop_process(clock)
+        alive = node.proc.poll() is None
+        out = node.stop()
+    finally:
+        subprocess.run(['rosparam', 'delete', '/use_sim_time'], env=ros_env)
+    assert warned and alive and node.proc.returncode == 0, out
