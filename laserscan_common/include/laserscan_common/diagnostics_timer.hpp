@@ -32,9 +32,10 @@ ros::WallTimer diagnosticsTimer(ros::NodeHandle& nh, Updater& updater, const std
                               catch (const std::exception& e)
                               {
                                 if (due(last_warning))
-                                  ROS_WARN("%s: diagnostics not published: %s (clock %.3f s; the end of ROS time is "
-                                           "2^32 s)",
-                                           name.c_str(), e.what(), ros::Time::now().toSec());
+                                  ROS_WARN(
+                                    "%s: diagnostics not published: %s (clock %.3f s; the end of ROS time is "
+                                    "2^32 s)",
+                                    name.c_str(), e.what(), ros::Time::now().toSec());
                               }
                             });
 }
