@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from laserscan_toolbox.ros.rosrun import OutputLines, stop_process
+from laserscan_toolbox.ros.rosrun import OutputLines, rostopic_pub
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHIPPED = os.path.join(PKG, "config", "depth_filter_scan_converter.yaml")
@@ -304,13 +304,8 @@ def test_a_clock_at_the_end_of_ros_time_does_not_end_the_node(ros_env):
         # running first (the updater's constructor does the same arithmetic: a node started in
         # the last second of ROS time stops at once)
         assert wait_advertised(ros_env, "/conv_end", "/scan", p), node.stop()
-        clock = subprocess.Popen(["rostopic", "pub", "/clock", "rosgraph_msgs/Clock",
-                                  "{clock: {secs: 4294967295, nsecs: 500000000}}"], env=ros_env,
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-        try:
+        with rostopic_pub(ros_env, "/clock", "rosgraph_msgs/Clock", "{clock: {secs: 4294967295, nsecs: 500000000}}"):
             warned = node.wait_for("diagnostics not published", "out of dual 32-bit range")
-        finally:
-            stop_process(clock)
         alive = p.poll() is None
         out = node.stop()
     finally:

@@ -9,7 +9,7 @@ import subprocess
 
 import pytest
 
-from laserscan_toolbox.ros.rosrun import OutputLines, stop_process
+from laserscan_toolbox.ros.rosrun import OutputLines, rostopic_pub
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 GOOD_SOURCE = '{name: a, topic: a/scan}'
@@ -137,12 +137,8 @@ def node_output_after_one_message(env, name, yaml_text, topic, msg_type, msg, ex
     set_params(env, name, yaml_text)
     node = start(env, name)
     wait_started(node)
-    pub = subprocess.Popen(['rostopic', 'pub', topic, msg_type, msg], env=env, stdout=subprocess.DEVNULL,
-                           stderr=subprocess.DEVNULL, start_new_session=True)
-    try:
+    with rostopic_pub(env, topic, msg_type, msg):
         seen = node.wait_for(expect)
-    finally:
-        stop_process(pub)
     alive = seen and node.proc.poll() is None
     out = node.stop()
     return alive and node.proc.returncode == 0, out
@@ -282,17 +278,13 @@ def test_missing_transform_is_reported(ros_env):
     set_params(ros_env, 'merger_tf', 'odom_topic: ""\nsources: [{name: side, topic: tf/scan}]')
     node = start(ros_env, 'merger_tf')
     wait_started(node)
-    pub = subprocess.Popen(['rostopic', 'pub', '-s', '-r', '5', '/tf/scan', 'sensor_msgs/LaserScan',
-                            '{header: {stamp: now, frame_id: nowhere}, angle_min: 0.0, angle_max: 1.0, angle_increment: 0.1, '
-                            'range_max: 10.0, ranges: [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]}'],
-                           env=ros_env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-    try:
+    with rostopic_pub(ros_env, '/tf/scan', 'sensor_msgs/LaserScan',
+                      '{header: {stamp: now, frame_id: nowhere}, angle_min: 0.0, angle_max: 1.0, angle_increment: 0.1, '
+                      'range_max: 10.0, ranges: [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]}', '-s', '-r', '5'):
         # Scans arrive and are dropped: diagnostics say why, never "no scan received yet".
         node.wait_for('scan dropped')
         diag = subprocess.run(['rostopic', 'echo', '-n', '1', '/diagnostics'], env=ros_env, capture_output=True,
                               text=True, timeout=30).stdout
-    finally:
-        stop_process(pub)
     alive = node.proc.poll() is None
     out = stop_cleanly(node)
     assert alive, out
@@ -686,13 +678,8 @@ def test_a_clock_at_the_end_of_ros_time_does_not_end_the_node(ros_env):
         set_params(ros_env, 'merger_end', 'odom_topic: ""\nsources: [{name: front, topic: end/scan}]')
         node = start(ros_env, 'merger_end')
         wait_started(node)
-        clock = subprocess.Popen(['rostopic', 'pub', '/clock', 'rosgraph_msgs/Clock',
-                                  '{clock: {secs: 4294967295, nsecs: 500000000}}'], env=ros_env,
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-        try:
+        with rostopic_pub(ros_env, '/clock', 'rosgraph_msgs/Clock', '{clock: {secs: 4294967295, nsecs: 500000000}}'):
             warned = node.wait_for('diagnostics not published', 'out of dual 32-bit range')
-        finally:
-            stop_process(clock)
         alive = node.proc.poll() is None
         out = node.stop()
     finally:

@@ -270,6 +270,19 @@ def wait_connected(subscribers, timeout=5.0):
     return False
 
 
+@contextlib.contextmanager
+def rostopic_pub(env, topic, msg_type, msg, *options):
+    """``rostopic pub [options] topic msg_type msg`` on the master of ``env`` while the block runs
+    (in its own session, stopped on leaving). Without ``-r`` the message is latched: it reaches
+    every subscriber whenever it connects."""
+    proc = subprocess.Popen(["rostopic", "pub"] + list(options) + [topic, msg_type, msg], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        yield proc
+    finally:
+        stop_process(proc)
+
+
 class OutputLines:
     """A child process's output (``stdout=PIPE, text=True``), read line by line in a thread, so
     that a caller waits for the line it needs instead of sleeping for a fixed time."""
