@@ -2,16 +2,13 @@
 collisions of the robot's shape are found against analytic shapes, the same seed gives the same
 run, and a run record survives JSON."""
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts"))
-from laserscan_toolbox.simulation import closed_loop as cl  # noqa: E402
-from laserscan_toolbox.simulation.robot import Robot  # noqa: E402
-from laserscan_toolbox.simulation.world import Box, Cylinder, Person, World  # noqa: E402
+from laserscan_toolbox.simulation import closed_loop as cl
+from laserscan_toolbox.simulation.robot import Robot
+from laserscan_toolbox.simulation.world import Box, Cylinder, Person, World
 
 
 # ----- kinematics ---------------------------------------------------------------------------------

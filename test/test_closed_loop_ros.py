@@ -12,8 +12,7 @@ import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCRIPTS = os.path.join(HERE, "..", "scripts")
-sys.path.insert(0, SCRIPTS)
-from laserscan_toolbox.ros import rosrun  # noqa: E402
+from laserscan_toolbox.ros import rosrun
 
 STEP = "/fake_navigator/step"
 STATE = "/fake_navigator/state"

@@ -2,7 +2,6 @@
 import glob
 import os
 import re
-import signal
 import subprocess
 import sys
 import time
@@ -12,6 +11,7 @@ import pytest
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
 from laserscan_toolbox import config_check as cc
+from laserscan_toolbox.ros.rosrun import Roscore, free_port, stop_process
 
 CHECK = os.path.join(REPO, "scripts", "check_config")
 SHIPPED = sorted(set(glob.glob(os.path.join(REPO, "config", "**", "*.yaml"), recursive=True)
@@ -180,35 +180,19 @@ def test_mounts_alone_form_the_tree():
 
 @pytest.fixture
 def master(tmp_path):
-    """A private roscore with /use_sim_time true; yields the environment that reaches it."""
-    import rosgraph
-    port = free_port()
-    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1",
-               ROS_HOME=str(tmp_path), ROS_LOG_DIR=str(tmp_path / "log"))
-    env.pop("ROS_HOSTNAME", None)
-    procs = [subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL, start_new_session=True)]
-    m = rosgraph.Master("/test", master_uri=env["ROS_MASTER_URI"])
-    deadline = time.time() + 30
-    while True:
-        try:
-            m.setParam("/use_sim_time", True)
-            break
-        except Exception:
-            assert time.time() < deadline and procs[0].poll() is None, "roscore did not start"
-            time.sleep(0.2)
+    """A private roscore (``Roscore``) with /use_sim_time true; yields the environment that
+    reaches it and start(*cmd), which runs a process on it until the test ends."""
+    procs = []
 
     def start(*cmd):
-        procs.append(subprocess.Popen(list(cmd), env=env, stdout=subprocess.DEVNULL,
+        procs.append(subprocess.Popen(list(cmd), env=core.env, stdout=subprocess.DEVNULL,
                                       stderr=subprocess.DEVNULL, start_new_session=True))
-    yield env, start
-    for p in reversed(procs):
-        os.killpg(p.pid, signal.SIGINT)
+    with Roscore(str(tmp_path / "ros"), sim_time=True) as core:
         try:
-            p.wait(15)
-        except subprocess.TimeoutExpired:
-            os.killpg(p.pid, signal.SIGKILL)
-            p.wait(5)
+            yield core.env, start
+        finally:
+            for p in reversed(procs):
+                stop_process(p, timeout=15)
 
 
 def test_live_with_sim_time_and_no_clock_times_out_with_advice(master, tmp_path):
@@ -273,9 +257,3 @@ def test_launch_fragment_is_included_the_usual_ways(tmp_path):
     assert p.returncode != 0
     assert "max_height: must be greater than min_height" in p.stdout + p.stderr
 
-
-def free_port():
-    import socket
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]

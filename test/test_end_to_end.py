@@ -313,9 +313,11 @@ def test_users_bag_with_stamps_ahead_of_the_bag_clock(tmp_path):
     shifted = rewrite_dual_bag(str(tmp_path / "ahead.bag"), 8.0,
                                lambda t, _t0: t + rospy.Duration(0.5))
     out = str(tmp_path / "out")
+    # no wall-time CPU replay: nothing here is about CPU (test_users_bag_without_ground_truth
+    # replays the same launch)
     code, log = run([os.path.join(SCRIPTS, "evaluate_bag"), shifted, "--launch",
                      os.path.join(REPO, "launch", "dual_lidar_demo.launch"), "--output", out,
-                     "--rate", "2", "--no-progress"], 300)
+                     "--rate", "2", "--no-progress", "--cpu-replay", "0"], 300)
     assert code == 0, log
     assert "negative latencies" in log
     with open(os.path.join(out, "results.json")) as f:

@@ -21,7 +21,7 @@ import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
-from laserscan_toolbox.ros.rosrun import free_port, stop_process
+from laserscan_toolbox.ros.rosrun import Roscore, stop_process
 
 PACKAGES = ["laserscan_common", "depth_filter_scan_converter", "multi_laserscan_merger",
             "scan_evaluation_tools"]
@@ -74,12 +74,11 @@ def build_dir():
 class Installed:
     """Runs commands in a clean environment that sources only the install space."""
 
-    def __init__(self, prefix, workdir, master_uri):
+    def __init__(self, prefix, workdir):
         self.prefix = prefix
         self.workdir = workdir
+        # The ROS variables (master, ROS_HOME in workdir) are added by the fixture's Roscore.
         self.env = {"HOME": workdir, "PATH": "/usr/bin:/bin", "LANG": "C.UTF-8",
-                    "ROS_HOME": workdir, "ROS_LOG_DIR": os.path.join(workdir, "log"),
-                    "ROS_MASTER_URI": master_uri, "ROS_IP": "127.0.0.1",
                     "ROSCONSOLE_FORMAT": "[${severity}] ${message}",
                     "ROSCONSOLE_STDOUT_LINE_BUFFERED": "1"}
 
@@ -130,22 +129,12 @@ def installed(tmp_path_factory):
     p = subprocess.run(["cmake", "--install", build], capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stdout + p.stderr
     workdir = str(tmp_path_factory.mktemp("install_space"))
-    port = free_port()
-    inst = Installed(prefix, workdir, "http://127.0.0.1:%d" % port)
-    core = inst.start("roscore", "-p", str(port))
-    import rosgraph
-    master = rosgraph.Master("/test_install_space", master_uri=inst.env["ROS_MASTER_URI"])
-    deadline = time.time() + 30
-    while True:
-        try:
-            master.getPid()
-            break
-        except Exception:
-            assert core.poll() is None and time.time() < deadline, "roscore did not start"
-            time.sleep(0.2)
-    inst.master = master
-    yield inst
-    stop_process(core)
+    inst = Installed(prefix, workdir)
+    # roscore from the install space's environment too
+    with Roscore(workdir, base_env=inst.env, command=inst.command, cwd=workdir) as core:
+        inst.env = core.env
+        inst.master = core.master
+        yield inst
 
 
 def wait_for(condition, procs, what, timeout=30.0):

@@ -13,7 +13,6 @@ import os
 import shutil
 import subprocess
 import sys
-import time
 
 import pytest
 
@@ -72,23 +71,16 @@ def publish(config):
 def test_rviz_draws_the_pipeline(tmp_path):
     for tool in ("xvfb-run", "rviz", "import", "roscore"):
         assert shutil.which(tool), "%s is missing (Debian packages xvfb, rviz, imagemagick)" % tool
-    from laserscan_toolbox.ros.rosrun import free_port, stop_process
+    from laserscan_toolbox.ros.rosrun import Roscore, stop_process
     from laserscan_toolbox.ros.rviz_shot import displays, image_stats, screenshot
-    port = free_port()
-    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_HOME=str(tmp_path),
-               ROS_LOG_DIR=str(tmp_path / "log"), ROS_IP="127.0.0.1")
-    core = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, start_new_session=True)
-    pub = None
-    try:
-        time.sleep(2.0)
-        pub = subprocess.Popen([sys.executable, __file__, "--publish", CONFIG], env=env,
+    with Roscore(str(tmp_path / "ros")) as core:
+        pub = subprocess.Popen([sys.executable, __file__, "--publish", CONFIG], env=core.env,
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                start_new_session=True)
-        shot = screenshot(CONFIG, str(tmp_path / "rviz.png"), delay=12.0, env=env)
-    finally:
-        stop_process(pub)
-        stop_process(core)
+        try:
+            shot = screenshot(CONFIG, str(tmp_path / "rviz.png"), delay=12.0, env=core.env)
+        finally:
+            stop_process(pub)
     colours = [c for _, _, c, enabled in displays(CONFIG) if enabled]
     st = image_stats(shot, colours)
     keep = os.environ.get("RVIZ_SCREENSHOT_OUT")

@@ -53,7 +53,7 @@ ConverterDiagnostics::ConverterDiagnostics(ros::NodeHandle nh, ros::NodeHandle p
 {
   updater_.setHardwareID(private_nh.getNamespace());  // the node's name: one converter per sensor
   updater_.add("Input and processing", std::move(task));
-  timer_ = laserscan_common::diagnosticsTimer(nh, updater_);
+  timer_ = laserscan_common::diagnosticsTimer(nh, updater_, private_nh.getNamespace());
 }
 
 double RateMeter::rate(std::uint64_t received)

@@ -6,49 +6,19 @@ diagnostics report input rate, processing time, transform failures and malformed
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
-import tempfile
 import time
 
 import pytest
+
+from laserscan_toolbox.ros.rosrun import OutputLines, rostopic_pub
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SHIPPED = os.path.join(PKG, "config", "depth_filter_scan_converter.yaml")
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-@pytest.fixture(scope="module")
-def ros_env():
-    tmp = tempfile.mkdtemp(prefix="converter_test_")
-    port = free_port()
-    env = dict(
-        os.environ,
-        ROS_MASTER_URI="http://127.0.0.1:%d" % port,
-        ROS_HOME=tmp,
-        ROS_LOG_DIR=tmp,
-        PYENV_VERSION="system",
-        ROSCONSOLE_FORMAT="[${severity}] ${message}",
-        ROSCONSOLE_STDOUT_LINE_BUFFERED="1",
-    )
-    core = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.time() + 30
-    while time.time() < deadline:
-        if subprocess.run(["rosparam", "list"], env=env, capture_output=True).returncode == 0:
-            break
-        time.sleep(0.3)
-    else:
-        core.terminate()
-        pytest.fail("roscore did not start")
-    yield env
-    core.terminate()
-    core.wait(timeout=20)
+# The ROS master comes from conftest.py's ros_env (a private roscore for this module).
 
 
 def load_params(env, ns, yaml_text=None, path=SHIPPED):
@@ -80,6 +50,19 @@ def stop(p, timeout=20):
     return out
 
 
+def wait_advertised(env, node, topic, proc, timeout=30.0):
+    """Waits until the master lists ``node`` as a publisher of ``topic`` (the node is up); False
+    if the process ends first or ``timeout`` s pass."""
+    import rosgraph
+    master = rosgraph.Master("/test_startup_and_tuning", master_uri=env["ROS_MASTER_URI"])
+    deadline = time.time() + timeout
+    while proc.poll() is None and time.time() < deadline:
+        if any(t == topic and node in nodes for t, nodes in master.getSystemState()[0]):
+            return True
+        time.sleep(0.05)
+    return False
+
+
 def wait_for_service(env, service, timeout=20):
     deadline = time.time() + timeout
     while time.time() < deadline:
@@ -93,11 +76,10 @@ def wait_for_service(env, service, timeout=20):
 def test_shipped_config_starts(ros_env, image):
     load_params(ros_env, "conv_ok")
     p = start(ros_env, "conv_ok", image=image)
-    time.sleep(3.0)
+    advertised = wait_advertised(ros_env, "/conv_ok", "/scan", p)
     assert p.poll() is None, stop(p)
-    topics = subprocess.run(["rostopic", "list"], env=ros_env, capture_output=True, text=True).stdout.split()
     out = stop(p)
-    assert "/scan" in topics, out
+    assert advertised, out
 
 
 @pytest.mark.parametrize(
@@ -143,10 +125,10 @@ def test_bad_config_stops_the_depth_image_node_too(ros_env):
 
 def test_bad_config_makes_the_nodelet_report_fatal_and_do_nothing(ros_env):
     load_params(ros_env, "conv_bad_nodelet", "min_height: 2.0\nmax_height: 1.0")
-    p = start(ros_env, "conv_bad_nodelet", nodelet=True)
-    time.sleep(3.0)
+    nodelet = OutputLines(start(ros_env, "conv_bad_nodelet", nodelet=True))
+    nodelet.wait_for("FATAL")  # nothing is advertised after it: onInit has ended
     topics = subprocess.run(["rostopic", "list"], env=ros_env, capture_output=True, text=True).stdout.split()
-    out = stop(p)
+    out = nodelet.stop()
     assert "FATAL" in out and "'min_height'" in out, out
     assert "/conv_bad_nodelet/set_parameters" not in topics
     assert not any(t.endswith("/scan") and "conv_bad_nodelet" in t for t in topics)
@@ -240,14 +222,17 @@ def test_malformed_warnings_are_throttled_though_stamps_differ(ros_env):
     feed = subprocess.Popen(["rostopic", "pub", "-s", "-r", "20", "/cloud_in", "sensor_msgs/PointCloud2",
                              "{header: {stamp: now, frame_id: ''}}"], env=ros_env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
+    node = OutputLines(p)
     try:
-        time.sleep(4.0)
+        # 20 more clouds after the first warning: unthrottled, each would be warned about
+        node.wait_for("dropped a malformed cloud")
+        time.sleep(1.0)
         alive = p.poll() is None
     finally:
         for q in (feed, listener):
             q.send_signal(signal.SIGINT)
             q.wait(timeout=20)
-        out = stop(p)
+        out = node.stop()
     assert alive, out
     warnings = [line for line in out.splitlines() if "dropped a malformed cloud" in line]
     assert 1 <= len(warnings) <= 2 and "empty frame_id" in warnings[0], out
@@ -283,8 +268,7 @@ def test_self_filter_config_verdicts_of_node_and_check_config_agree(ros_env, yam
     load_params(ros_env, "conv_self", yaml_text)
     p = start(ros_env, "conv_self")
     if parameter is None:
-        time.sleep(3.0)
-        assert p.poll() is None, stop(p)
+        assert wait_advertised(ros_env, "/conv_self", "/scan", p), stop(p)
         out = stop(p)
         assert "self filter: 2 shapes on 2 frames" in out, out
         assert problems == []
@@ -305,3 +289,24 @@ def test_self_filter_without_a_robot_description_stops_the_node(ros_env):
     out, _ = p.communicate(timeout=20)
     assert p.returncode != 0
     assert "'robot_description': is empty or not set" in out, out
+
+
+def test_a_clock_at_the_end_of_ros_time_does_not_end_the_node(ros_env):
+    """diagnostic_updater schedules its next update at now() + 1 s: with a (simulated) clock within
+    1 s of 2^32 s ros::Time throws, and out of the diagnostics timer that ended the process (a
+    whole nodelet manager). The status is skipped with a warning instead."""
+    subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=ros_env, check=True)
+    try:
+        load_params(ros_env, "conv_end")
+        p = start(ros_env, "conv_end")
+        node = OutputLines(p)
+        # running first (the updater's constructor does the same arithmetic: a node started in
+        # the last second of ROS time stops at once)
+        assert wait_advertised(ros_env, "/conv_end", "/scan", p), node.stop()
+        with rostopic_pub(ros_env, "/clock", "rosgraph_msgs/Clock", "{clock: {secs: 4294967295, nsecs: 500000000}}"):
+            warned = node.wait_for("diagnostics not published", "out of dual 32-bit range")
+        alive = p.poll() is None
+        out = node.stop()
+    finally:
+        subprocess.run(["rosparam", "delete", "/use_sim_time"], env=ros_env)
+    assert warned and alive and p.returncode == 0, out

@@ -14,7 +14,7 @@ import sys
 
 import pytest
 
-from test_startup_and_tuning import load_params, ros_env, start, stop  # noqa: F401 (fixture)
+from test_startup_and_tuning import load_params, start, stop
 
 FEED = r"""
 import json, math, struct, sys, time
@@ -100,7 +100,7 @@ print(json.dumps({'camera': scans.get('camera', []), 'far_camera': scans.get('fa
 
 
 @pytest.mark.parametrize("nodelet", [False, True])
-def test_faulty_transforms_are_ignored_and_conversion_goes_on(ros_env, nodelet):  # noqa: F811
+def test_faulty_transforms_are_ignored_and_conversion_goes_on(ros_env, nodelet):
     name = "conv_tf_nodelet" if nodelet else "conv_tf"
     load_params(ros_env, name)
     p = start(ros_env, name, nodelet=nodelet)

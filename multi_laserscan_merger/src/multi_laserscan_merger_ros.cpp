@@ -273,7 +273,7 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   if (params_.publish_rate > 0.0)
     publish_timer_ = nh_.createTimer(ros::Duration(1.0 / params_.publish_rate),
                                      [this](const ros::TimerEvent& e) { timerCallback(e); });
-  diagnostics_timer_ = laserscan_common::diagnosticsTimer(nh_, *updater_);
+  diagnostics_timer_ = laserscan_common::diagnosticsTimer(nh_, *updater_, name_);
   ROS_INFO(
     "%s: merging %zu sources into '%s' on '%s' (%zu beams), publish_rate %.1f Hz, sync_window %.3f s, motion "
     "compensation %s",

@@ -5,43 +5,20 @@ does nothing); a malformed scan is dropped with a message naming the source and 
 import json
 import os
 import signal
-import socket
 import subprocess
-import tempfile
-import time
 
 import pytest
 
+from laserscan_toolbox.ros.rosrun import OutputLines, rostopic_pub
+
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 GOOD_SOURCE = '{name: a, topic: a/scan}'
+NODE = ['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node']
+NODELET = ['rosrun', 'nodelet', 'nodelet', 'standalone', 'multi_laserscan_merger/MultiLaserScanMergerNodelet']
+#: The merger's last start-up line: it has subscribed and advertised.
+STARTED = 'merging '
 
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
-
-
-@pytest.fixture(scope='module')
-def ros_env():
-    tmp = tempfile.mkdtemp(prefix='merger_test_')
-    port = free_port()
-    env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:%d' % port, ROS_HOME=tmp, ROS_LOG_DIR=tmp,
-               PYENV_VERSION='system', ROSCONSOLE_FORMAT='[${severity}] ${message}',
-               ROSCONSOLE_STDOUT_LINE_BUFFERED='1')
-    core = subprocess.Popen(['roscore', '-p', str(port)], env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
-    deadline = time.time() + 30
-    while time.time() < deadline:
-        if subprocess.run(['rosparam', 'list'], env=env, capture_output=True).returncode == 0:
-            break
-        time.sleep(0.3)
-    else:
-        core.terminate()
-        pytest.fail('roscore did not start')
-    yield env
-    core.terminate()
-    core.wait(timeout=20)
+# The ROS master comes from conftest.py's ros_env (a private roscore for this module).
 
 
 def set_params(env, ns, yaml_text):
@@ -51,25 +28,44 @@ def set_params(env, ns, yaml_text):
     subprocess.run(['rosparam', 'load', path, '/' + ns], env=env, check=True)
 
 
-def run_node(env, name, wait, args=()):
-    """Starts the node; returns (exit code or None if still running after `wait` s, output)."""
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name] + list(args),
-                         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+def start(env, name, args=(), command=NODE):
+    """The merger node (or ``command``) named ``name``; its output read line by line."""
+    return OutputLines(subprocess.Popen(command + ['__name:=' + name] + list(args), env=env, stdout=subprocess.PIPE,
+                                        stderr=subprocess.STDOUT, text=True))
+
+
+def wait_started(node, *parts, timeout=30.0):
+    """Waits for the node's start-up line (holding ``parts`` too); fails with its output if it
+    stops or does not get there."""
+    if not node.wait_for(STARTED, *parts, timeout=timeout):
+        pytest.fail('the node did not start (%s):\n%s' % (' '.join(parts) or STARTED, node.stop()))
+
+
+def stop_cleanly(node):
+    """Stops a node that must have run until now: exit status 0 after SIGINT (a node that died
+    earlier exits otherwise). Returns its output."""
+    out = node.stop()
+    assert node.proc.returncode == 0, out
+    return out
+
+
+def run_to_exit(env, name, args=(), timeout=15.0):
+    """Starts the node and waits for it to exit: (exit code, or None if it still runs after
+    ``timeout`` s, output)."""
+    node = start(env, name, args)
     try:
-        out, _ = p.communicate(timeout=wait)
-        return p.returncode, out
+        code = node.proc.wait(timeout)
     except subprocess.TimeoutExpired:
-        p.send_signal(signal.SIGINT)  # roscpp shuts down cleanly on SIGINT
-        out, _ = p.communicate(timeout=20)
-        return None, out
+        code = None
+    return code, node.stop()
 
 
 def test_shipped_config_starts(ros_env):
     subprocess.run(['rosparam', 'load', os.path.join(PKG, 'config', 'multi_laserscan_merger.yaml'), '/merger_ok'],
                    env=ros_env, check=True)
-    code, out = run_node(ros_env, 'merger_ok', 4.0)
-    assert code is None, out
-    assert 'merging 4 sources' in out
+    node = start(ros_env, 'merger_ok')
+    wait_started(node, 'merging 4 sources')
+    stop_cleanly(node)
 
 
 @pytest.mark.parametrize('yaml_text,parameter', [
@@ -99,7 +95,7 @@ def test_shipped_config_starts(ros_env):
 def test_bad_config_stops_node_naming_parameter(ros_env, yaml_text, parameter):
     ns = 'bad_%d' % (abs(hash(yaml_text)) % 100000)
     set_params(ros_env, ns, yaml_text)
-    code, out = run_node(ros_env, ns, 15.0)
+    code, out = run_to_exit(ros_env, ns)
     assert code is not None and code != 0, out
     assert 'FATAL' in out and "parameter '%s'" % parameter in out, out
 
@@ -107,68 +103,83 @@ def test_bad_config_stops_node_naming_parameter(ros_env, yaml_text, parameter):
 def test_self_filter_block_is_read(ros_env):
     set_params(ros_env, 'merger_self', 'self_filter: {shapes: [{frame: forearm, type: cylinder, radius: 0.05, '
                                        'length: 0.4}]}\nsources: [%s]' % GOOD_SOURCE)
-    code, out = run_node(ros_env, 'merger_self', 4.0)
-    assert code is None, out
+    node = start(ros_env, 'merger_self')
+    wait_started(node)
+    out = stop_cleanly(node)
     assert 'self filter: 1 shapes on 1 frames' in out, out
 
 
 def test_source_on_the_remapped_output_topic_is_refused(ros_env):
     # A lidar driver on /scan, and the output remapped to /scan as well: the merger would read itself.
     set_params(ros_env, 'merger_clash', 'sources: [{name: front, topic: front/scan}, {name: lidar, topic: /scan}]')
-    code, out = run_node(ros_env, 'merger_clash', 15.0, ['merged_scan:=/scan'])
+    code, out = run_to_exit(ros_env, 'merger_clash', ['merged_scan:=/scan'])
     assert code is not None and code != 0, out
     assert "parameter 'sources[1].topic'" in out and "source 'lidar' resolves to '/scan'" in out, out
     # Without the remap the same sources are fine.
-    code, out = run_node(ros_env, 'merger_clash', 4.0)
-    assert code is None and "on '/merged_scan'" in out, out
+    node = start(ros_env, 'merger_clash')
+    wait_started(node, "on '/merged_scan'")
+    stop_cleanly(node)
 
 
 def test_bad_config_nodelet_fatal(ros_env):
     set_params(ros_env, 'bad_nodelet', 'sources: [{name: a, topic: x}, {name: a, topic: y}]')
-    p = subprocess.Popen(['rosrun', 'nodelet', 'nodelet', 'standalone', 'multi_laserscan_merger/MultiLaserScanMergerNodelet',
-                          '__name:=bad_nodelet'], env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(5.0)
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
+    nodelet = start(ros_env, 'bad_nodelet', command=NODELET)
+    assert nodelet.wait_for('FATAL'), nodelet.stop()
+    out = nodelet.stop()
     assert 'FATAL' in out and "parameter 'sources[1].name'" in out and 'duplicate' in out, out
     assert 'merging 1 sources' not in out
 
 
-def node_output_after_one_message(env, name, yaml_text, topic, msg_type, msg):
-    """Starts the node, publishes one message, stops it: (still alive before the stop, output)."""
+def node_output_after_one_message(env, name, yaml_text, topic, msg_type, msg, expect):
+    """Starts the node, publishes one message (latched: it reaches the node whenever it
+    connects) until the node's output holds ``expect``, stops it: (alive: it ran until then and
+    shut down cleanly, output)."""
     set_params(env, name, yaml_text)
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name],
-                         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(2.0)
-    subprocess.run(['rostopic', 'pub', '-1', topic, msg_type, msg], env=env, check=True, capture_output=True,
-                   timeout=30)
-    time.sleep(1.0)
-    alive = p.poll() is None
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
-    return alive, out
+    node = start(env, name)
+    wait_started(node)
+    with rostopic_pub(env, topic, msg_type, msg):
+        seen = node.wait_for(expect)
+    alive = seen and node.proc.poll() is None
+    out = node.stop()
+    return alive and node.proc.returncode == 0, out
+
+
+#: What every feed script starts with: waiting for its connections instead of sleeping.
+FEED_TOOLS = r'''
+import sys, time
+def wait_until(condition, what, timeout=30.0):
+    deadline = time.time() + timeout
+    while not condition():
+        if time.time() > deadline:
+            print('timed out waiting for', what)
+            sys.stdout.flush()
+            sys.exit(3)
+        time.sleep(0.01)
+def wait_connected(*endpoints):
+    """Publishers with their subscriber (the merger), subscribers with their publisher."""
+    wait_until(lambda: all(e.get_num_connections() > 0 for e in endpoints), 'connections')
+'''
 
 
 def node_output_with_feed(env, name, yaml_text, feed_script, *feed_args):
-    """Starts the node, runs the feed script (rospy) to its end, stops the node: (still alive before
-    the stop, the feed's CompletedProcess, the node's output)."""
+    """Starts the node, runs the feed script (rospy, after FEED_TOOLS) to its end, stops the node:
+    (alive: it ran to the feed's end and shut down cleanly, the feed's CompletedProcess, the
+    node's output)."""
     set_params(env, name, yaml_text)
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=' + name],
-                         env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(1.0)
-    feed = subprocess.run(['/usr/bin/python3', '-c', feed_script, *feed_args], env=env, capture_output=True,
-                          text=True, timeout=60)
-    alive = p.poll() is None
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
-    return alive, feed, out
+    node = start(env, name)
+    wait_started(node)
+    feed = subprocess.run(['/usr/bin/python3', '-c', FEED_TOOLS + feed_script, *feed_args], env=env,
+                          capture_output=True, text=True, timeout=60)
+    alive = node.proc.poll() is None
+    out = node.stop()
+    return alive and node.proc.returncode == 0, feed, out
 
 
 def test_malformed_scan_is_reported(ros_env):
     alive, out = node_output_after_one_message(
         ros_env, 'merger_m', 'odom_topic: ""\nsources: [{name: front, topic: m/scan}]', '/m/scan',
         'sensor_msgs/LaserScan', '{header: {frame_id: base_link}, angle_min: 0.0, angle_max: 1.0, '
-        'angle_increment: 0.1, range_max: 10.0, ranges: [1.0, 2.0]}')
+        'angle_increment: 0.1, range_max: 10.0, ranges: [1.0, 2.0]}', 'malformed scan dropped')
     assert alive, out
     assert "source 'front'" in out and 'malformed scan dropped' in out and 'ranges length' in out, out
 
@@ -179,7 +190,7 @@ def test_tf_with_a_stamp_near_2_to_the_32_is_ignored(ros_env):
     alive, out = node_output_after_one_message(
         ros_env, 'merger_tfx', 'odom_topic: ""\nsources: [{name: a, topic: tfx/scan}]', '/tf', 'tf2_msgs/TFMessage',
         '{transforms: [{header: {stamp: {secs: 4294967290, nsecs: 0}, frame_id: base_link}, child_frame_id: x, '
-        'transform: {rotation: {w: 1.0}}}]}')
+        'transform: {rotation: {w: 1.0}}}]}', 'ignored')
     assert alive, out
     assert "transform 'base_link' -> 'x'" in out and 'stamp 4294967290.000000000 ignored' in out, out
 
@@ -189,13 +200,13 @@ def test_infinite_transform_is_ignored(ros_env):
     alive, out = node_output_after_one_message(
         ros_env, 'merger_tfinf', 'odom_topic: ""\nsources: [{name: a, topic: tfinf/scan}]', '/tf',
         'tf2_msgs/TFMessage', '{transforms: [{header: {stamp: now, frame_id: base_link}, child_frame_id: lidar, '
-        'transform: {translation: {x: .inf}, rotation: {w: 1.0}}}]}')
+        'transform: {translation: {x: .inf}, rotation: {w: 1.0}}}]}', 'not finite')
     assert alive, out
     assert "transform 'base_link' -> 'lidar'" in out and 'not finite' in out, out
 
 
 TF_CONFLICT_FEED = r"""
-import json, math, sys, time, rospy
+import json, math, rospy
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
@@ -203,17 +214,32 @@ rospy.init_node('tf_conflict_feed')
 tf = rospy.Publisher('/tf', TFMessage, queue_size=10)
 tf_static = rospy.Publisher('/tf_static', TFMessage, queue_size=10, latch=True)
 scan = rospy.Publisher('/tc/scan', LaserScan, queue_size=10)
-nearest = []
-rospy.Subscriber('/merged_scan', LaserScan,
-                 lambda m: nearest.append(min((r for r in m.ranges if math.isfinite(r)), default=-1.0)))
-time.sleep(1.5)
+nearest, stamps = [], []
+def merged(m):
+    nearest.append(min((r for r in m.ranges if math.isfinite(r)), default=-1.0))
+    stamps.append(m.header.stamp)
+merged_sub = rospy.Subscriber('/merged_scan', LaserScan, merged)
+wait_connected(tf, tf_static, scan, merged_sub)
 def transform(parent, child, stamp, x=0.0, w=1.0):
     t = TransformStamped()
     t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, parent, child
     t.transform.translation.x, t.transform.rotation.w = x, w
     return t
+def lidar(stamp):
+    s = LaserScan()
+    s.header.stamp, s.header.frame_id = stamp, 'lidar'
+    s.angle_min, s.angle_max, s.angle_increment = -0.1, 0.1, 0.05
+    s.range_max, s.ranges = 10.0, [2.0] * 5
+    scan.publish(s)
 tf_static.publish(TFMessage([transform('base_link', 'lidar', rospy.Time(0), x=1.0)]))
-time.sleep(0.5)
+# The merger has the static mount once a scan in the lidar's frame comes back merged.
+probe = [0.0]
+def merged_after_probe():
+    if time.time() - probe[0] > 0.1:
+        lidar(rospy.Time.now())
+        probe[0] = time.time()
+    return bool(nearest)
+wait_until(merged_after_probe, 'a merged scan on the static mount')
 for i in range(20):
     now = rospy.Time.now()
     # The lidar's mount again on /tf, 2 m behind: in tf2 it would replace the static one. And what
@@ -221,13 +247,9 @@ for i in range(20):
     tf.publish(TFMessage([transform('base_link', 'lidar', now, x=-1.0), transform('base_link', 'base_link', now),
                           transform('base_link', 'tilted', now, w=0.0)]))
     time.sleep(0.02)
-    s = LaserScan()
-    s.header.stamp, s.header.frame_id = now, 'lidar'
-    s.angle_min, s.angle_max, s.angle_increment = -0.1, 0.1, 0.05
-    s.range_max, s.ranges = 10.0, [2.0] * 5
-    scan.publish(s)
+    lidar(now)
     time.sleep(0.08)
-time.sleep(0.5)
+wait_until(lambda: now in stamps, 'the last scan merged')  # every earlier output came before it
 print(json.dumps(nearest))
 """
 
@@ -254,23 +276,17 @@ def test_faulty_and_conflicting_transforms_are_named_once_and_the_static_mount_s
 
 def test_missing_transform_is_reported(ros_env):
     set_params(ros_env, 'merger_tf', 'odom_topic: ""\nsources: [{name: side, topic: tf/scan}]')
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_tf'],
-                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(2.0)
-    pub = subprocess.Popen(['rostopic', 'pub', '-s', '-r', '5', '/tf/scan', 'sensor_msgs/LaserScan',
-                            '{header: {stamp: now, frame_id: nowhere}, angle_min: 0.0, angle_max: 1.0, angle_increment: 0.1, '
-                            'range_max: 10.0, ranges: [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]}'],
-                           env=ros_env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    time.sleep(2.0)
-    # Scans arrive and are dropped: diagnostics say why, never "no scan received yet".
-    diag = subprocess.run(['rostopic', 'echo', '-n', '1', '/diagnostics'], env=ros_env, capture_output=True,
-                          text=True, timeout=30).stdout
-    time.sleep(1.0)
-    pub.send_signal(signal.SIGINT)
-    pub.wait(timeout=20)
-    alive = p.poll() is None
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
+    node = start(ros_env, 'merger_tf')
+    wait_started(node)
+    with rostopic_pub(ros_env, '/tf/scan', 'sensor_msgs/LaserScan',
+                      '{header: {stamp: now, frame_id: nowhere}, angle_min: 0.0, angle_max: 1.0, angle_increment: 0.1, '
+                      'range_max: 10.0, ranges: [1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1]}', '-s', '-r', '5'):
+        # Scans arrive and are dropped: diagnostics say why, never "no scan received yet".
+        node.wait_for('scan dropped')
+        diag = subprocess.run(['rostopic', 'echo', '-n', '1', '/diagnostics'], env=ros_env, capture_output=True,
+                              text=True, timeout=30).stdout
+    alive = node.proc.poll() is None
+    out = stop_cleanly(node)
     assert alive, out
     assert "source 'side'" in out and "no transform 'nowhere' -> 'base_link'" in out and 'scan dropped' in out, out
     assert 'none merged yet' in diag and 'transform' in diag and 'no scan received yet' not in diag, diag
@@ -278,23 +294,30 @@ def test_missing_transform_is_reported(ros_env):
 
 
 BAD_ODOM_FEED = r'''
-import math, sys, time, rospy
+import math, rospy
 from nav_msgs.msg import Odometry
+from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import LaserScan
 rospy.init_node('bad_odom_feed')
 odom = rospy.Publisher('/o/odom', Odometry, queue_size=10)
 scan = rospy.Publisher('/o/scan', LaserScan, queue_size=10)
-merged = []
-rospy.Subscriber('/merged_scan', LaserScan, lambda m: merged.append(m))
-time.sleep(1.5)
+merged, warnings = [], []
+merged_sub = rospy.Subscriber('/merged_scan', LaserScan, lambda m: merged.append(m))
+rosout = rospy.Subscriber('/rosout_agg', Log, lambda m: warnings.append(m.msg) if m.level >= Log.WARN else None)
+wait_connected(odom, scan, merged_sub, rosout)
 def bad_odom(i):
     o = Odometry()
     o.header.stamp, o.child_frame_id = rospy.Time.now(), 'base_link'
     o.pose.pose.orientation.w = [0.0, math.nan][i % 2]  # zero, then NaN quaternions only
     odom.publish(o)
-for i in range(3):  # odometry first: the merger has received some (none usable) before any scan
-    bad_odom(i)
-time.sleep(0.5)
+# Odometry first: the merger has received some (none usable) before any scan.
+sent = [0]
+def odometry_ignored():
+    bad_odom(sent[0])
+    sent[0] += 1
+    time.sleep(0.02)
+    return any('zero quaternion ignored' in w for w in warnings)
+wait_until(odometry_ignored, 'the merger ignoring odometry')
 for i in range(20):
     bad_odom(i)
     s = LaserScan()
@@ -303,7 +326,7 @@ for i in range(20):
     s.range_max, s.ranges = 10.0, [2.0] * 21
     scan.publish(s)
     time.sleep(0.1)
-time.sleep(0.5)
+wait_until(lambda: len(merged) >= 10, 'ten merged scans', timeout=5.0)
 print('merged', len(merged))
 sys.stdout.flush()
 '''
@@ -319,13 +342,13 @@ def test_unusable_odometry_is_named(ros_env):
 
 
 LATE_FEED = r'''
-import sys, time, rospy
+import rospy
 from sensor_msgs.msg import LaserScan
 rospy.init_node('late_feed')
 pubs = {n: rospy.Publisher('/late/%s' % n, LaserScan, queue_size=10) for n in ('front', 'rear')}
 stamps = []
-rospy.Subscriber('/merged_scan', LaserScan, lambda m: stamps.append(m.header.stamp.to_nsec()))
-time.sleep(1.5)
+merged_sub = rospy.Subscriber('/merged_scan', LaserScan, lambda m: stamps.append(m.header.stamp.to_nsec()))
+wait_connected(merged_sub, *pubs.values())
 def send(name, t):
     s = LaserScan()
     s.header.stamp, s.header.frame_id = t, 'base_link'
@@ -338,6 +361,8 @@ for k in range(5):  # the rear scan arrives after the front one but is 0.4 ms ol
     t = t0 + rospy.Duration(0.1 * k)
     send('front', t)
     send('rear', t - rospy.Duration(0.0004))
+# What must not come (a second output of a stamp, after the last rear scan) has no event to
+# wait for: the last rear scan has had 0.2 s in send(), and 0.5 s more here.
 time.sleep(0.5)
 print(len(stamps), len(set(stamps)), int(all(a < b for a, b in zip(stamps, stamps[1:]))))
 sys.stdout.flush()
@@ -345,22 +370,16 @@ sys.stdout.flush()
 
 
 def test_a_late_older_scan_gives_no_second_output_with_the_same_stamp(ros_env):
-    set_params(ros_env, 'merger_late', 'odom_topic: ""\nsources: [{name: front, topic: late/front}, '
-               '{name: rear, topic: late/rear}]')
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_late'],
-                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(1.0)
-    feed = subprocess.run(['/usr/bin/python3', '-c', LATE_FEED], env=ros_env, capture_output=True, text=True,
-                          timeout=60)
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
+    _, feed, out = node_output_with_feed(
+        ros_env, 'merger_late', 'odom_topic: ""\nsources: [{name: front, topic: late/front}, {name: rear, topic: late/rear}]',
+        LATE_FEED)
     count, distinct, increasing = (int(v) for v in feed.stdout.split()[-3:])
     # one output per front scan (the late rear scans go into the next one), stamps all different
     assert count == 5 and distinct == 5 and increasing == 1, feed.stdout + feed.stderr + out
 
 
 FEED = r'''
-import sys, rospy
+import rospy
 from rosgraph_msgs.msg import Clock
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
@@ -369,9 +388,9 @@ clock = rospy.Publisher('/clock', Clock, queue_size=10)
 odom = rospy.Publisher('/j/odom', Odometry, queue_size=10)
 scan = rospy.Publisher('/j/scan', LaserScan, queue_size=10)
 after = [0]
-rospy.Subscriber('/merged_scan', LaserScan, lambda m: after.__setitem__(0, after[0] + (m.header.stamp.to_sec() < 90)))
-import time
-time.sleep(1.5)
+merged_sub = rospy.Subscriber('/merged_scan', LaserScan,
+                             lambda m: after.__setitem__(0, after[0] + (m.header.stamp.to_sec() < 90)))
+wait_connected(clock, odom, scan, merged_sub)
 def run(t0, seconds, with_odom):
     t = t0
     for i in range(int(seconds / 0.01)):
@@ -394,7 +413,7 @@ def run(t0, seconds, with_odom):
 run(100.0, 2.0, True)     # normal
 run(102.0, 1.5, False)    # odometry stops
 run(50.0, 2.0, True)      # the clock jumps back (a bag played in a loop)
-time.sleep(0.5)
+wait_until(lambda: after[0] > 5, 'outputs after the jump', timeout=5.0)
 print('after_jump_outputs', after[0])
 sys.stdout.flush()
 '''
@@ -406,14 +425,12 @@ def test_diagnostics_go_on_while_a_simulated_clock_stands_still(ros_env):
     subprocess.run(['rosparam', 'set', '/use_sim_time', 'true'], env=ros_env, check=True)
     try:
         set_params(ros_env, 'merger_clock', 'sources: [{name: front, topic: clock_test/scan}]')
-        node = ['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_clock']
-        p = subprocess.Popen(node, env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        node = start(ros_env, 'merger_clock')
         try:
             r = subprocess.run(['rostopic', 'echo', '-n', '3', '/diagnostics'], env=ros_env, capture_output=True,
                                text=True, timeout=30)
         finally:
-            p.send_signal(signal.SIGINT)
-            p.communicate(timeout=20)
+            node.stop()
     finally:
         subprocess.run(['rosparam', 'delete', '/use_sim_time'], env=ros_env)
     assert r.stdout.count('merger_clock: source front') == 3, r.stdout + r.stderr
@@ -423,14 +440,8 @@ def test_diagnostics_go_on_while_a_simulated_clock_stands_still(ros_env):
 def test_time_jump_and_odometry_stop(ros_env):
     subprocess.run(['rosparam', 'set', '/use_sim_time', 'true'], env=ros_env, check=True)
     try:
-        set_params(ros_env, 'merger_j', 'odom_topic: j/odom\nsources: [{name: front, topic: j/scan, timeout: 0.5}]')
-        p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_j'],
-                             env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        time.sleep(1.0)
-        feed = subprocess.run(['/usr/bin/python3', '-c', FEED], env=ros_env, capture_output=True, text=True, timeout=60)
-        alive = p.poll() is None
-        p.send_signal(signal.SIGINT)
-        out, _ = p.communicate(timeout=20)
+        alive, feed, out = node_output_with_feed(
+            ros_env, 'merger_j', 'odom_topic: j/odom\nsources: [{name: front, topic: j/scan, timeout: 0.5}]', FEED)
     finally:
         subprocess.run(['rosparam', 'delete', '/use_sim_time'], env=ros_env)
     assert alive, out
@@ -443,7 +454,7 @@ def test_time_jump_and_odometry_stop(ros_env):
 
 
 STAMP_FEED = r'''
-import sys, time, rospy
+import rospy
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
@@ -451,8 +462,8 @@ rospy.init_node('stamp_feed')
 tf = rospy.Publisher('/tf', TFMessage, queue_size=10)
 scan = rospy.Publisher('/s/scan', LaserScan, queue_size=10)
 merged = []
-rospy.Subscriber('/merged_scan', LaserScan, lambda m: merged.append((time.time(), m.header.stamp)))
-time.sleep(1.5)
+merged_sub = rospy.Subscriber('/merged_scan', LaserScan, lambda m: merged.append((time.time(), m.header.stamp)))
+wait_connected(tf, scan, merged_sub)
 bad = sys.argv[1]
 def mount(stamp):
     t = TransformStamped()
@@ -478,7 +489,7 @@ for i in range(40):
     time.sleep(0.02)
     lidar(now)
     time.sleep(0.08)
-time.sleep(0.5)
+wait_until(lambda: any(s == now for _, s in merged), 'the last scan merged', timeout=5.0)
 print('zero_stamped', sum(1 for _, s in merged if s.is_zero()))
 print('after', sum(1 for t, _ in merged if t > mark + 0.5))
 sys.stdout.flush()
@@ -505,7 +516,7 @@ def test_zero_and_far_ahead_stamps_are_malformed(ros_env, bad):
 
 
 MOUNT_FEED = r'''
-import sys, time, rospy
+import rospy
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
@@ -514,8 +525,8 @@ tf = rospy.Publisher('/tf', TFMessage, queue_size=10, latch=True)
 lidar = rospy.Publisher('/mm/lidar', LaserScan, queue_size=10)
 rear = rospy.Publisher('/mm/rear', LaserScan, queue_size=10)
 merged = []
-rospy.Subscriber('/merged_scan', LaserScan, lambda m: merged.append(m))
-time.sleep(1.5)
+merged_sub = rospy.Subscriber('/merged_scan', LaserScan, lambda m: merged.append(m))
+wait_connected(tf, lidar, rear, merged_sub)
 T = rospy.Time.now()
 def mount(stamp, x):  # the lidar slides forward: x 0 at T - 1 s, 1 m from T on
     t = TransformStamped()
@@ -524,7 +535,7 @@ def mount(stamp, x):  # the lidar slides forward: x 0 at T - 1 s, 1 m from T on
     return t
 tf.publish(TFMessage(transforms=[mount(T - rospy.Duration(1.0), 0.0), mount(T, 1.0),
                                  mount(T + rospy.Duration(1.0), 1.0)]))
-time.sleep(0.5)
+time.sleep(0.5)  # the mounts' arrival in the merger cannot be seen from here (latched: they go at once)
 def scan(pub, frame, stamp, a0, a1):
     s = LaserScan()
     s.header.stamp, s.header.frame_id = stamp, frame
@@ -536,7 +547,8 @@ time.sleep(0.3)
 scan(lidar, 'lidar', T - rospy.Duration(0.5), -0.5, 0.5)     # older: discarded (mount x = 0.5)
 time.sleep(0.3)
 scan(rear, 'base_link', T + rospy.Duration(0.01), 2.5, 3.0)  # a merge with the kept lidar scan
-time.sleep(0.5)
+wait_until(lambda: merged and merged[-1].header.stamp == T + rospy.Duration(0.01), "the rear scan's merge",
+           timeout=5.0)  # any output of the discarded scan came before it
 last = merged[-1]
 i = int(round((0.0 - last.angle_min) / last.angle_increment))
 print('outputs', len(merged), 'forward', last.ranges[i])
@@ -551,7 +563,7 @@ rospy.Subscriber('/diagnostics', DiagnosticArray, on_diagnostics)
 scan(lidar, 'lidar', T - rospy.Duration(1.5), -0.5, 0.5)
 time.sleep(0.05)
 scan(lidar, 'lidar', T + rospy.Duration(0.2), -0.5, 0.5)
-time.sleep(2.5)
+wait_until(lambda: status.get('transform failures') == '1', 'the superseded scan counted', timeout=5.0)
 print('transform_failures', status.get('transform failures'))
 print('last_drop', status.get('last drop reason', '').replace(' ', '_'))
 sys.stdout.flush()
@@ -561,15 +573,9 @@ sys.stdout.flush()
 def test_a_discarded_older_scan_leaves_the_kept_scans_mount(ros_env):
     # The mount used to be stored when looked up, before accept() discarded the older scan: the
     # kept scan was then merged with the discarded one's mount (wrong with a moving mount).
-    set_params(ros_env, 'merger_mm', 'odom_topic: ""\nsources: [{name: lidar, topic: mm/lidar, timeout: 2.0}, '
-               '{name: rear, topic: mm/rear, timeout: 2.0}]')
-    p = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger_mm'],
-                         env=ros_env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    time.sleep(1.0)
-    feed = subprocess.run(['/usr/bin/python3', '-c', MOUNT_FEED], env=ros_env, capture_output=True, text=True,
-                          timeout=60)
-    p.send_signal(signal.SIGINT)
-    out, _ = p.communicate(timeout=20)
+    _, feed, out = node_output_with_feed(
+        ros_env, 'merger_mm', 'odom_topic: ""\nsources: [{name: lidar, topic: mm/lidar, timeout: 2.0}, '
+        '{name: rear, topic: mm/rear, timeout: 2.0}]', MOUNT_FEED)
     words = feed.stdout.split()
     assert 'forward' in words, feed.stdout + feed.stderr + out
     assert int(words[words.index('outputs') + 1]) == 2, feed.stdout + out  # the lidar's, then the rear's
@@ -611,8 +617,9 @@ scan('/sm/front', frame_id='', beams=11)  # the same source, another fault
 scan('/sm/rear')                # the same merger, another source, the same fault
 scan('/sm/b_front')             # another merger in the manager, a source of the same name
 expected = json.loads(sys.argv[2])
+# The last of them comes after the whole burst (one connection per source, in order; one
+# /rosout stream): the burst's own warnings are in by then.
 wait_for(lambda: all(any(all(part in w for part in e) for w in warnings) for e in expected), 'warnings')
-time.sleep(1.0)  # whatever else the burst gave
 print(json.dumps({'warnings': warnings}))
 '''
 
@@ -660,3 +667,21 @@ def test_one_sources_warning_hides_no_other_sources_or_mergers_in_a_manager(ros_
     # Still throttled per source and fault: the burst is not one warning per scan.
     front = [w for w in warnings if "/merger_sa: source 'front'" in w and ranges_fault in w]
     assert 1 <= len(front) < burst, warnings
+
+
+def test_a_clock_at_the_end_of_ros_time_does_not_end_the_node(ros_env):
+    # diagnostic_updater schedules its next update at now() + 1 s: with a (simulated) clock within
+    # 1 s of 2^32 s ros::Time throws, and out of the diagnostics timer that ended the process (a
+    # whole nodelet manager). The status is skipped with a warning instead.
+    subprocess.run(['rosparam', 'set', '/use_sim_time', 'true'], env=ros_env, check=True)
+    try:
+        set_params(ros_env, 'merger_end', 'odom_topic: ""\nsources: [{name: front, topic: end/scan}]')
+        node = start(ros_env, 'merger_end')
+        wait_started(node)
+        with rostopic_pub(ros_env, '/clock', 'rosgraph_msgs/Clock', '{clock: {secs: 4294967295, nsecs: 500000000}}'):
+            warned = node.wait_for('diagnostics not published', 'out of dual 32-bit range')
+        alive = node.proc.poll() is None
+        out = node.stop()
+    finally:
+        subprocess.run(['rosparam', 'delete', '/use_sim_time'], env=ros_env)
+    assert warned and alive and node.proc.returncode == 0, out

@@ -20,7 +20,6 @@ none.
 """
 import math
 import os
-import sys
 import threading
 import unittest
 
@@ -32,9 +31,7 @@ from geometry_msgs.msg import TransformStamped
 from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "..", "..", "scripts"))
-from laserscan_toolbox.ros.rosrun import wait_connected  # noqa: E402
+from laserscan_toolbox.ros.rosrun import wait_connected
 
 CAMERA_HEIGHT = 0.8
 WALL_X = 2.0

@@ -10,7 +10,6 @@ forearm's own direction, the wall behind it (seen above and below the cube).
 """
 import math
 import os
-import sys
 import threading
 import unittest
 
@@ -21,9 +20,7 @@ import tf2_ros
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "..", "..", "..", "scripts"))
-from laserscan_toolbox.ros.rosrun import wait_connected  # noqa: E402
+from laserscan_toolbox.ros.rosrun import wait_connected
 
 CAMERA_HEIGHT = 0.5
 WALL_X = 2.0

@@ -112,8 +112,67 @@ def _exit_on_sigterm(signum, _frame):
     sys.exit(128 + signum)
 
 
-class Master:
-    """A private roscore; sets ROS_MASTER_URI etc. in os.environ for this process too.
+class Roscore:
+    """A private ``roscore`` on a free port, its ROS_HOME and ROS_LOG_DIR in ``workdir``; the one
+    way every tool and test starts a master. ``env`` is the environment that reaches it (``base_env``,
+    default os.environ, with the ROS variables set), ``master`` a rosgraph.Master on it, ``uri`` and
+    ``port`` its address. Returns from ``__enter__`` once the master answers (RunError if it does
+    not within ``timeout`` s); stops roscore's process group on leaving.
+
+    sim_time: sets /use_sim_time to it when not None. command: turns an argument list into the
+    command line that runs it (e.g. through an install space's setup.bash); roscore is started
+    with it in its own session, ``cwd`` its working folder."""
+
+    def __init__(self, workdir, sim_time=None, base_env=None, command=None, cwd=None, timeout=30.0):
+        self.workdir = workdir
+        self.sim_time = sim_time
+        self.base_env = base_env
+        self.command = command or (lambda args: args)
+        self.cwd = cwd
+        self.timeout = timeout
+        self.proc = None
+        self.port = None
+        self.uri = None
+        self.env = None
+        self.master = None
+
+    def __enter__(self):
+        os.makedirs(self.workdir, exist_ok=True)
+        self.port = free_port()
+        self.uri = "http://127.0.0.1:%d" % self.port
+        self.env = dict(os.environ if self.base_env is None else self.base_env,
+                        ROS_MASTER_URI=self.uri, ROS_HOME=self.workdir,
+                        ROS_LOG_DIR=os.path.join(self.workdir, "log"), ROS_IP="127.0.0.1")
+        self.env.pop("ROS_HOSTNAME", None)  # ROS_IP must decide the address
+        self.log = os.path.join(self.workdir, "roscore.log")
+        with open(self.log, "w") as f:
+            self.proc = subprocess.Popen(self.command(["roscore", "-p", str(self.port)]), env=self.env,
+                                         cwd=self.cwd, stdout=f, stderr=subprocess.STDOUT,
+                                         start_new_session=True)
+        import rosgraph
+        master = rosgraph.Master("/laserscan_toolbox", master_uri=self.uri)
+        deadline = time.time() + self.timeout
+        while True:
+            try:
+                master.getPid()
+                if self.sim_time is not None:
+                    master.setParam("/use_sim_time", self.sim_time)
+                break
+            except Exception:
+                if self.proc.poll() is not None or time.time() > deadline:
+                    self.__exit__(None, None, None)
+                    raise RunError("roscore did not start:\n" + log_tail(self.log))
+                time.sleep(0.1)
+        self.master = master
+        return self
+
+    def __exit__(self, *exc):
+        stop_process(self.proc)
+
+
+class Master(Roscore):
+    """A private roscore (``Roscore``) that this process's own node uses too: it sets
+    ROS_MASTER_URI etc. in os.environ. /use_sim_time is set to ``sim_time``.
 
     The children run in their own sessions (a Ctrl-C meant for the tool must not kill them
     before the tool has saved its results), so the tool itself must stop them: SIGTERM is
@@ -121,46 +180,16 @@ class Master:
     """
 
     def __init__(self, workdir, sim_time=True):
-        self.workdir = workdir
-        self.sim_time = sim_time
-        self.proc = None
-        self.port = None
+        super().__init__(workdir, sim_time=sim_time)
 
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, _exit_on_sigterm)
-        os.makedirs(self.workdir, exist_ok=True)
-        self.port = free_port()
-        self.uri = "http://127.0.0.1:%d" % self.port
-        for k, v in (("ROS_MASTER_URI", self.uri), ("ROS_HOME", self.workdir),
-                     ("ROS_LOG_DIR", os.path.join(self.workdir, "log")),
-                     ("ROS_IP", "127.0.0.1")):
-            os.environ[k] = v
+        super().__enter__()
+        for k in ("ROS_MASTER_URI", "ROS_HOME", "ROS_LOG_DIR", "ROS_IP"):
+            os.environ[k] = self.env[k]
         os.environ.pop("ROS_HOSTNAME", None)
-        self.log = os.path.join(self.workdir, "roscore.log")
-        with open(self.log, "w") as f:
-            self.proc = subprocess.Popen(["roscore", "-p", str(self.port)], stdout=f,
-                                         stderr=subprocess.STDOUT, start_new_session=True)
-        import rosgraph
-        master = rosgraph.Master("/laserscan_toolbox")
-        deadline = time.time() + 30
-        while True:
-            try:
-                master.getPid()
-                # roscore is up once /rosout is registered too
-                if self.sim_time:
-                    master.setParam("/use_sim_time", True)
-                break
-            except Exception:
-                if self.proc.poll() is not None or time.time() > deadline:
-                    self.__exit__(None, None, None)
-                    raise RunError("roscore did not start:\n" + log_tail(self.log))
-                time.sleep(0.2)
-        self.master = master
         return self
-
-    def __exit__(self, *exc):
-        stop_process(self.proc)
 
 
 class Session:
@@ -239,6 +268,73 @@ def wait_connected(subscribers, timeout=5.0):
             return True
         time.sleep(0.05)
     return False
+
+
+@contextlib.contextmanager
+def rostopic_pub(env, topic, msg_type, msg, *options):
+    """``rostopic pub [options] topic msg_type msg`` on the master of ``env`` while the block runs
+    (in its own session, stopped on leaving). Without ``-r`` the message is latched: it reaches
+    every subscriber whenever it connects."""
+    proc = subprocess.Popen(["rostopic", "pub"] + list(options) + [topic, msg_type, msg], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        yield proc
+    finally:
+        stop_process(proc)
+
+
+class OutputLines:
+    """A child process's output (``stdout=PIPE, text=True``), read line by line in a thread, so
+    that a caller waits for the line it needs instead of sleeping for a fixed time."""
+
+    def __init__(self, proc):
+        self.proc = proc
+        self._lines = []
+        self._ended = False
+        self._changed = threading.Condition()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self):
+        for line in self.proc.stdout:
+            with self._changed:
+                self._lines.append(line)
+                self._changed.notify_all()
+        with self._changed:
+            self._ended = True
+            self._changed.notify_all()
+
+    def wait_for(self, *parts, timeout=30.0):
+        """True once a line holds every one of ``parts``; False when the output ends (the process
+        exited) or ``timeout`` s pass first."""
+        deadline = time.time() + timeout
+        with self._changed:
+            while True:
+                if any(all(p in line for p in parts) for line in self._lines):
+                    return True
+                left = deadline - time.time()
+                if self._ended or left <= 0:
+                    return False
+                self._changed.wait(left)
+
+    @property
+    def text(self):
+        """What was read so far."""
+        with self._changed:
+            return "".join(self._lines)
+
+    def stop(self, timeout=20.0):
+        """SIGINT to the process if it still runs (ROS nodes shut down cleanly on it), then its
+        whole output once it has exited."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+        try:
+            self.proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait(5)
+        self._reader.join(5)
+        return self.text
 
 
 class Launch:
