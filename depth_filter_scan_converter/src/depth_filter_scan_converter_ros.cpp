@@ -33,36 +33,10 @@ const char* failureText(tf2_ros::filter_failure_reasons::FilterFailureReason rea
 }
 }  // namespace
 
-Parameters loadParameters(const ros::NodeHandle& pnh)
+Parameters loadParameters(laserscan_common::ParameterReader& reader)
 {
   Parameters p;
-  TransformParams& transform = p.transform;
-  readTypedParam(pnh, "reference_frame", transform.reference_frame, "string");
-  readTypedParam(pnh, "transform_tolerance", transform.transform_tolerance, "double");
-  readTypedParam(pnh, "tf_buffer_duration", transform.tf_buffer_duration, "double");
-  BandParams& band = p.band;
-  readTypedParam(pnh, "floor_height", band.floor_height, "double");
-  readTypedParam(pnh, "min_height", band.min_height, "double");
-  readTypedParam(pnh, "max_height", band.max_height, "double");
-  readTypedParam(pnh, "hole_detection", band.hole_detection, "bool");
-  readTypedParam(pnh, "hole_depth", band.hole_depth, "double");
-  ScanParams& scan = p.scan;
-  readTypedParam(pnh, "angle_min", scan.angle_min, "double");
-  readTypedParam(pnh, "angle_max", scan.angle_max, "double");
-  readTypedParam(pnh, "angle_increment", scan.angle_increment, "double");
-  readTypedParam(pnh, "range_min", scan.range_min, "double");
-  readTypedParam(pnh, "range_max", scan.range_max, "double");
-  readTypedParam(pnh, "too_close_at_range_min", scan.too_close_at_range_min, "bool");
-  readTypedParam(pnh, "use_inf", scan.use_inf, "bool");
-  readTypedParam(pnh, "inf_epsilon", scan.inf_epsilon, "double");
-  readTypedParam(pnh, "range_noise_std", p.noise.range_noise_std, "double");
-  readTypedParam(pnh, "range_noise_std_per_m2", p.noise.range_noise_std_per_m2, "double");
-  InputParams& input = p.input;
-  readTypedParam(pnh, "row_stride", input.row_stride, "int");
-  readTypedParam(pnh, "column_stride", input.column_stride, "int");
-  readTypedParam(pnh, "intensity_field", input.intensity_field, "string");
-  readTypedParam(pnh, "depth_image_rectified", input.depth_image_rectified, "bool");
-  readTypedParam(pnh, "publish_filtered_cloud", p.publish_filtered_cloud, "bool");
+  reader.readFields(p);
   p.validate();
   return p;
 }
@@ -74,8 +48,9 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
     input_(input),
     reading_(reading),
     input_topic_(nh.resolveName(input == DepthInput::Cloud ? "cloud_in" : "image")),
-    params_(loadParameters(private_nh)),
-    queue_size_(readQueueSize(private_nh)),
+    reader_(private_nh),
+    params_(loadParameters(reader_)),
+    queue_size_(params_.input.queue_size),
     tf_buffer_(ros::Duration(params_.transform.tf_buffer_duration)),
     lazy_([this] { subscribeInput(); }, [this] { unsubscribeInput(); }),
     projector_(params_),
@@ -89,7 +64,8 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
   tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, private_nh_.getNamespace());
   std::vector<std::string> self_filter_warnings;
   self_filter_ =
-    laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(private_nh_), nh_, self_filter_warnings);
+    laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(reader_), nh_, self_filter_warnings);
+  reader_.warnUnknown();
   for (const std::string& warning : self_filter_warnings)
     ROS_WARN("[%s] self filter: %s", private_nh_.getNamespace().c_str(), warning.c_str());
   // A message waits for its own transform and for those of the robot's parts at its stamp.
