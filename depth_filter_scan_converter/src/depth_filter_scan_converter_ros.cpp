@@ -31,6 +31,44 @@ const char* failureText(tf2_ros::filter_failure_reasons::FilterFailureReason rea
       return "no transform arrived before newer clouds pushed it out of the queue";
   }
 }
+// dynamic_reconfigure's values travel by name: each parameter of the .cfg is the field of
+// Parameters' table with that name (test/test_parameter_tables.py checks name, type, default).
+template <class T>
+auto& entriesOf(dynamic_reconfigure::Config& message)
+{
+  if constexpr (std::is_same_v<T, bool>)
+    return message.bools;
+  else if constexpr (std::is_same_v<T, int>)
+    return message.ints;
+  else if constexpr (std::is_same_v<T, double>)
+    return message.doubles;
+  else
+    return message.strs;
+}
+
+void toConfig(const Parameters& p, DepthFilterScanConverterConfig& config)
+{
+  dynamic_reconfigure::Config message;
+  config.__toMessage__(message);
+  visitFields(p, [&message](const auto& field, const laserscan_common::ParamInfo& info) {
+    for (auto& entry : entriesOf<std::decay_t<decltype(field)>>(message))
+      if (entry.name == info.name)
+        entry.value = field;
+  });
+  config.__fromMessage__(message);
+}
+
+void fromConfig(const DepthFilterScanConverterConfig& config, Parameters& p)
+{
+  dynamic_reconfigure::Config message;
+  config.__toMessage__(message);
+  visitFields(p, [&message](auto& field, const laserscan_common::ParamInfo& info) {
+    using T = std::decay_t<decltype(field)>;
+    for (const auto& entry : entriesOf<T>(message))
+      if (entry.name == info.name)
+        field = static_cast<T>(entry.value);
+  });
+}
 }  // namespace
 
 Parameters loadParameters(laserscan_common::ParameterReader& reader)
@@ -438,32 +476,16 @@ void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* byt
 void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level*/)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  auto write = [&config](const Parameters& p) {
-    config.floor_height = p.band.floor_height;
-    config.min_height = p.band.min_height;
-    config.max_height = p.band.max_height;
-    config.hole_detection = p.band.hole_detection;
-    config.hole_depth = p.band.hole_depth;
-    config.range_min = p.scan.range_min;
-    config.range_max = p.scan.range_max;
-  };
   if (first_reconfigure_)
   {
     // The server's first call carries its clamped copy of the start-up values (it cannot hold
     // "no limit" = inf): the loaded, validated parameters win, and the server shows them.
     first_reconfigure_ = false;
-    write(params_);
+    toConfig(params_, config);
     return;
   }
   Parameters p = params_;
-  // What dynamic_reconfigure tunes: the whole band and the scan's range limits.
-  p.band.floor_height = config.floor_height;
-  p.band.min_height = config.min_height;
-  p.band.max_height = config.max_height;
-  p.band.hole_detection = config.hole_detection;
-  p.band.hole_depth = config.hole_depth;
-  p.scan.range_min = config.range_min;
-  p.scan.range_max = config.range_max;
+  fromConfig(config, p);  // what dynamic_reconfigure tunes: the .cfg's fields
   try
   {
     projector_.setParameters(p);  // validates
@@ -476,7 +498,7 @@ void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level
   {
     ROS_WARN("[%s] rejected a dynamic_reconfigure change: %s; keeping the previous values",
              private_nh_.getNamespace().c_str(), describe(e).c_str());
-    write(params_);
+    toConfig(params_, config);
   }
 }
 
