@@ -98,8 +98,7 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
   using P = dfsc::Parameters;
   laserscan_common::python::bindFields(params);
   m.def("parameter_table", &laserscan_common::python::table<P>, "The field table of Parameters (the export)");
-  params
-    .def("validate", &P::validate, "Raises ParameterError (a ValueError) naming the bad parameter")
+  params.def("validate", &P::validate, "Raises ParameterError (a ValueError) naming the bad parameter")
     .def("beam_count", [](const P& p) { return p.scan.beamCount(); })
     .def("no_return_value", [](const P& p) { return p.scan.noReturnValue(); })
     .def("too_close_value", [](const P& p) { return p.scan.tooCloseValue(); });

@@ -26,8 +26,8 @@ RangeScanConverter::RangeScanConverter(ros::NodeHandle nh, ros::NodeHandle priva
           std::lock_guard<std::mutex> state(mutex_);
           converter_.reset();  // readings from before a pause do not confirm new ones
         }
-        range_sub_ =
-          nh_.subscribe("range_in", static_cast<std::uint32_t>(params_.queue_size), &RangeScanConverter::rangeArrived, this);
+        range_sub_ = nh_.subscribe("range_in", static_cast<std::uint32_t>(params_.queue_size),
+                                   &RangeScanConverter::rangeArrived, this);
       },
       [this] { range_sub_.shutdown(); }),
     converter_(params_),

@@ -41,9 +41,10 @@ MergerParams loadParams(laserscan_common::ParameterReader& reader)
   reader.readFields(p);
   XmlRpc::XmlRpcValue list;
   if (!reader.readRaw("sources", list))
-    throw ParameterError("sources", "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
-                                    "range_max, deskew, too_close_is_obstacle, footprint_filter, self_filter, "
-                                    "drop_explained_within}");
+    throw ParameterError("sources",
+                         "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
+                         "range_max, deskew, too_close_is_obstacle, footprint_filter, self_filter, "
+                         "drop_explained_within}");
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw ParameterError("sources", "must be a list of dictionaries");
   for (int i = 0; i < list.size(); ++i)
@@ -59,7 +60,11 @@ MergerParams loadParams(laserscan_common::ParameterReader& reader)
 }
 
 MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
-  : nh_(nh), private_nh_(private_nh), name_(private_nh.getNamespace()), reader_(private_nh), params_(loadParams(reader_))
+  : nh_(nh),
+    private_nh_(private_nh),
+    name_(private_nh.getNamespace()),
+    reader_(private_nh),
+    params_(loadParams(reader_))
 {
   core_ = std::make_unique<MergerCore>(params_);
   odom_topic_ = params_.odom_topic.empty() ? "" : nh_.resolveName(params_.odom_topic);

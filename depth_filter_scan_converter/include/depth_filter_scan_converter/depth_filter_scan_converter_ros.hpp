@@ -140,7 +140,7 @@ private:
   ros::NodeHandle nh_, private_nh_;
   const DepthInput input_;
   const CloudReading reading_;
-  std::string input_topic_;  // resolved, for messages
+  std::string input_topic_;                   // resolved, for messages
   laserscan_common::ParameterReader reader_;  // knows every name read, for the unknown-key warning
   Parameters params_;
   int queue_size_;

@@ -21,8 +21,7 @@ using Polygon = std::vector<std::array<double, 2>>;
 /// struct's validate() is the authority (the agreement tests tie the two together).
 struct ParamInfo
 {
-  ParamInfo(const char* name_, const char* unit_, const char* meaning_) : name(name_), unit(unit_), meaning(meaning_)
-  {}
+  ParamInfo(const char* name_, const char* unit_, const char* meaning_) : name(name_), unit(unit_), meaning(meaning_) {}
 
   const char* name;
   const char* unit;
@@ -35,13 +34,34 @@ struct ParamInfo
   double angle = 0.0;             ///< > 0: an angle within [-angle, angle] (+ the nodes' 1e-6 tolerance)
   const char* default_text = "";  ///< the README's default when the value alone does not say it
 
-  ParamInfo atLeast(double v) const { return with([v](ParamInfo& p) { p.lo = v; }); }
-  ParamInfo above(double v) const { return with([v](ParamInfo& p) { p.lo = v, p.lo_open = true; }); }
-  ParamInfo atMost(double v) const { return with([v](ParamInfo& p) { p.hi = v; }); }
-  ParamInfo finiteOnly() const { return with([](ParamInfo& p) { p.finite = true; }); }
-  ParamInfo nonEmpty() const { return with([](ParamInfo& p) { p.nonempty = true; }); }
-  ParamInfo angleWithin(double a) const { return with([a](ParamInfo& p) { p.angle = a; }); }
-  ParamInfo shownAs(const char* text) const { return with([text](ParamInfo& p) { p.default_text = text; }); }
+  ParamInfo atLeast(double v) const
+  {
+    return with([v](ParamInfo& p) { p.lo = v; });
+  }
+  ParamInfo above(double v) const
+  {
+    return with([v](ParamInfo& p) { p.lo = v, p.lo_open = true; });
+  }
+  ParamInfo atMost(double v) const
+  {
+    return with([v](ParamInfo& p) { p.hi = v; });
+  }
+  ParamInfo finiteOnly() const
+  {
+    return with([](ParamInfo& p) { p.finite = true; });
+  }
+  ParamInfo nonEmpty() const
+  {
+    return with([](ParamInfo& p) { p.nonempty = true; });
+  }
+  ParamInfo angleWithin(double a) const
+  {
+    return with([a](ParamInfo& p) { p.angle = a; });
+  }
+  ParamInfo shownAs(const char* text) const
+  {
+    return with([text](ParamInfo& p) { p.default_text = text; });
+  }
 
 private:
   template <class F>
@@ -54,11 +74,26 @@ private:
 };
 
 /// The type names of the export and the README tables.
-inline const char* typeName(const bool&) { return "bool"; }
-inline const char* typeName(const int&) { return "int"; }
-inline const char* typeName(const double&) { return "double"; }
-inline const char* typeName(const std::string&) { return "string"; }
-inline const char* typeName(const Polygon&) { return "polygon"; }
+inline const char* typeName(const bool&)
+{
+  return "bool";
+}
+inline const char* typeName(const int&)
+{
+  return "int";
+}
+inline const char* typeName(const double&)
+{
+  return "double";
+}
+inline const char* typeName(const std::string&)
+{
+  return "string";
+}
+inline const char* typeName(const Polygon&)
+{
+  return "polygon";
+}
 
 /// The names a visitFields function lists, in order.
 template <class P>

@@ -112,7 +112,7 @@ private:
   void outputDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   ros::NodeHandle nh_, private_nh_;
-  std::string name_;  ///< for messages
+  std::string name_;                          ///< for messages
   laserscan_common::ParameterReader reader_;  ///< knows every name read, for the unknown-key warning
   MergerParams params_;
   std::unique_ptr<MergerCore> core_;
