@@ -23,4 +23,6 @@ TOOLBOX_PARENT = os.path.join("..", "scripts")
 setup(**generate_distutils_setup(
     packages=find_packages(TOOLBOX_PARENT, include=["laserscan_toolbox", "laserscan_toolbox.*"]),
     package_dir={"": TOOLBOX_PARENT},
+    # check_config's schema: the export of the C++ parameter tables (parameter_tables.py).
+    package_data={"laserscan_toolbox": ["parameter_tables.json"]},
 ))

@@ -600,7 +600,7 @@ def parameter_table(readme, section, first_column="parameter", nth=0):
 
 def parse_default(cell):
     if cell.startswith("(required"):
-        return None
+        return ""  # a required string: the struct's default is empty
     text = re.sub(r"\s*\(.*\)$", "", cell.replace("`", "")).strip()
     words = {"pi": math.pi, "-pi": -math.pi, "pi/720": math.pi / 720, "+inf": math.inf, ".inf": math.inf,
              "true": True, "false": False, '""': "", "[]": [], "absent": {}}

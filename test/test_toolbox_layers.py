@@ -1,5 +1,5 @@
-"""The Python toolbox (scripts/laserscan_toolbox) is layered: ``ros`` and ``config_check`` at the
-bottom, ``simulation`` on ``ros``, ``evaluation`` on those, ``experiments`` on top. Every import of
+"""The Python toolbox (scripts/laserscan_toolbox) is layered: ``ros``, ``parameter_tables`` and
+``config_check`` (on ``parameter_tables``) at the bottom, ``simulation`` on ``ros``, ``evaluation`` on those, ``experiments`` on top. Every import of
 a toolbox module (at module level or inside a function) goes to its own part or a lower one, no
 modules import each other round a cycle, and every module imports."""
 import ast
@@ -14,10 +14,11 @@ PACKAGE = "laserscan_toolbox"
 # part -> the other parts its modules may import
 ALLOWED = {
     "ros": set(),
-    "config_check": set(),
+    "parameter_tables": set(),
+    "config_check": {"parameter_tables"},
     "simulation": {"ros"},
-    "evaluation": {"simulation", "ros", "config_check"},
-    "experiments": {"evaluation", "simulation", "ros", "config_check"},
+    "evaluation": {"simulation", "ros", "config_check", "parameter_tables"},
+    "experiments": {"evaluation", "simulation", "ros", "config_check", "parameter_tables"},
 }
 
 

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "depth_filter_scan_converter/converter_glue.hpp"
+#include "laserscan_common/parameter_reader.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -28,8 +29,9 @@ private:
     const ros::NodeHandle& pnh = getPrivateNodeHandle();
     try
     {
-      readTypedParam(pnh, "rate", rate_, "double");
-      readTypedParam(pnh, "frames", frame_count_, "int");
+      laserscan_common::ParameterReader reader(pnh);
+      reader.read("rate", rate_);
+      reader.read("frames", frame_count_);
       if (!std::isfinite(rate_) || rate_ <= 0.0)
         throw laserscan_common::ParameterError("rate", "must be a positive number of frames per second");
       if (frame_count_ < 1)

@@ -8,6 +8,7 @@
 
 #include "depth_filter_scan_converter/cloud_view.hpp"
 #include "laserscan_common/fast_math.hpp"
+#include "laserscan_common/parameter_table_python.hpp"
 #include "depth_filter_scan_converter/projector.hpp"
 
 namespace py = pybind11;
@@ -74,15 +75,6 @@ Eigen::Isometry3d isometryOf(const Eigen::Matrix4d& m)
   return t;
 }
 
-/// A parameter of one concern's struct as a flat Python attribute.
-template <class Group, class T>
-void bindParameter(py::class_<dfsc::Parameters>& c, const char* name, Group dfsc::Parameters::*group, T Group::*member)
-{
-  c.def_property(
-    name, [group, member](const dfsc::Parameters& p) { return p.*group.*member; },
-    [group, member](dfsc::Parameters& p, const T& value) { p.*group.*member = value; });
-}
-
 py::array_t<float> toArray(const std::vector<float>& v)
 {
   return py::array_t<float>(static_cast<py::ssize_t>(v.size()), v.data());
@@ -104,30 +96,9 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
   py::class_<dfsc::Parameters> params(m, "Parameters");
   params.def(py::init<>());
   using P = dfsc::Parameters;
-  bindParameter(params, "reference_frame", &P::transform, &dfsc::TransformParams::reference_frame);
-  bindParameter(params, "transform_tolerance", &P::transform, &dfsc::TransformParams::transform_tolerance);
-  bindParameter(params, "tf_buffer_duration", &P::transform, &dfsc::TransformParams::tf_buffer_duration);
-  bindParameter(params, "floor_height", &P::band, &dfsc::BandParams::floor_height);
-  bindParameter(params, "min_height", &P::band, &dfsc::BandParams::min_height);
-  bindParameter(params, "max_height", &P::band, &dfsc::BandParams::max_height);
-  bindParameter(params, "hole_detection", &P::band, &dfsc::BandParams::hole_detection);
-  bindParameter(params, "hole_depth", &P::band, &dfsc::BandParams::hole_depth);
-  bindParameter(params, "angle_min", &P::scan, &dfsc::ScanParams::angle_min);
-  bindParameter(params, "angle_max", &P::scan, &dfsc::ScanParams::angle_max);
-  bindParameter(params, "angle_increment", &P::scan, &dfsc::ScanParams::angle_increment);
-  bindParameter(params, "range_min", &P::scan, &dfsc::ScanParams::range_min);
-  bindParameter(params, "range_max", &P::scan, &dfsc::ScanParams::range_max);
-  bindParameter(params, "too_close_at_range_min", &P::scan, &dfsc::ScanParams::too_close_at_range_min);
-  bindParameter(params, "use_inf", &P::scan, &dfsc::ScanParams::use_inf);
-  bindParameter(params, "inf_epsilon", &P::scan, &dfsc::ScanParams::inf_epsilon);
-  bindParameter(params, "range_noise_std", &P::noise, &dfsc::RangeNoiseParams::range_noise_std);
-  bindParameter(params, "range_noise_std_per_m2", &P::noise, &dfsc::RangeNoiseParams::range_noise_std_per_m2);
-  bindParameter(params, "row_stride", &P::input, &dfsc::InputParams::row_stride);
-  bindParameter(params, "column_stride", &P::input, &dfsc::InputParams::column_stride);
-  bindParameter(params, "intensity_field", &P::input, &dfsc::InputParams::intensity_field);
-  bindParameter(params, "depth_image_rectified", &P::input, &dfsc::InputParams::depth_image_rectified);
-  params.def_readwrite("publish_filtered_cloud", &P::publish_filtered_cloud)
-    .def("validate", &P::validate, "Raises ParameterError (a ValueError) naming the bad parameter")
+  laserscan_common::python::bindFields(params);
+  m.def("parameter_table", &laserscan_common::python::table<P>, "The field table of Parameters (the export)");
+  params.def("validate", &P::validate, "Raises ParameterError (a ValueError) naming the bad parameter")
     .def("beam_count", [](const P& p) { return p.scan.beamCount(); })
     .def("no_return_value", [](const P& p) { return p.scan.noReturnValue(); })
     .def("too_close_value", [](const P& p) { return p.scan.tooCloseValue(); });

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "depth_filter_scan_converter/range_to_scan.hpp"
+#include "laserscan_common/parameter_table_python.hpp"
 
 namespace py = pybind11;
 namespace dfsc = depth_filter_scan_converter;
@@ -15,13 +16,11 @@ PYBIND11_MODULE(depth_filter_scan_converter_range_core, m)
   // Local: every module of the toolbox registers the same C++ type, each as its own Python class.
   py::register_local_exception<dfsc::ParameterError>(m, "ParameterError", PyExc_ValueError);
 
-  py::class_<dfsc::RangeScanParameters>(m, "RangeScanParameters")
-    .def(py::init<>())
-    .def_readwrite("arc_width_scale", &dfsc::RangeScanParameters::arc_width_scale)
-    .def_readwrite("arc_width", &dfsc::RangeScanParameters::arc_width)
-    .def_readwrite("angle_increment", &dfsc::RangeScanParameters::angle_increment)
-    .def_readwrite("min_consecutive_readings", &dfsc::RangeScanParameters::min_consecutive_readings)
-    .def("validate", &dfsc::RangeScanParameters::validate);
+  py::class_<dfsc::RangeScanParameters> params(m, "RangeScanParameters");
+  params.def(py::init<>()).def("validate", &dfsc::RangeScanParameters::validate);
+  laserscan_common::python::bindFields(params);
+  m.def("parameter_table", &laserscan_common::python::table<dfsc::RangeScanParameters>,
+        "The field table of RangeScanParameters (the export)");
 
   py::class_<dfsc::RangeToScan>(m, "RangeToScan")
     .def(py::init<const dfsc::RangeScanParameters&>(), py::arg("params"))

@@ -7,15 +7,6 @@
 
 namespace depth_filter_scan_converter
 {
-int readQueueSize(const ros::NodeHandle& private_nh)
-{
-  int queue_size = 10;
-  readTypedParam(private_nh, "queue_size", queue_size, "int");
-  if (queue_size < 1)
-    throw laserscan_common::ParameterError("queue_size", "must be >= 1");
-  return queue_size;
-}
-
 LazySubscription::LazySubscription(std::function<void()> subscribe, std::function<void()> unsubscribe)
   : subscribe_(std::move(subscribe)), unsubscribe_(std::move(unsubscribe))
 {}

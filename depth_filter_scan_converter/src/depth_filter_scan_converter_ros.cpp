@@ -31,38 +31,50 @@ const char* failureText(tf2_ros::filter_failure_reasons::FilterFailureReason rea
       return "no transform arrived before newer clouds pushed it out of the queue";
   }
 }
+// dynamic_reconfigure's values travel by name: each parameter of the .cfg is the field of
+// Parameters' table with that name (test/test_parameter_tables.py checks name, type, default).
+template <class T>
+auto& entriesOf(dynamic_reconfigure::Config& message)
+{
+  if constexpr (std::is_same_v<T, bool>)
+    return message.bools;
+  else if constexpr (std::is_same_v<T, int>)
+    return message.ints;
+  else if constexpr (std::is_same_v<T, double>)
+    return message.doubles;
+  else
+    return message.strs;
+}
+
+void toConfig(const Parameters& p, DepthFilterScanConverterConfig& config)
+{
+  dynamic_reconfigure::Config message;
+  config.__toMessage__(message);
+  visitFields(p, [&message](const auto& field, const laserscan_common::ParamInfo& info) {
+    for (auto& entry : entriesOf<std::decay_t<decltype(field)>>(message))
+      if (entry.name == info.name)
+        entry.value = field;
+  });
+  config.__fromMessage__(message);
+}
+
+void fromConfig(const DepthFilterScanConverterConfig& config, Parameters& p)
+{
+  dynamic_reconfigure::Config message;
+  config.__toMessage__(message);
+  visitFields(p, [&message](auto& field, const laserscan_common::ParamInfo& info) {
+    using T = std::decay_t<decltype(field)>;
+    for (const auto& entry : entriesOf<T>(message))
+      if (entry.name == info.name)
+        field = static_cast<T>(entry.value);
+  });
+}
 }  // namespace
 
-Parameters loadParameters(const ros::NodeHandle& pnh)
+Parameters loadParameters(laserscan_common::ParameterReader& reader)
 {
   Parameters p;
-  TransformParams& transform = p.transform;
-  readTypedParam(pnh, "reference_frame", transform.reference_frame, "string");
-  readTypedParam(pnh, "transform_tolerance", transform.transform_tolerance, "double");
-  readTypedParam(pnh, "tf_buffer_duration", transform.tf_buffer_duration, "double");
-  BandParams& band = p.band;
-  readTypedParam(pnh, "floor_height", band.floor_height, "double");
-  readTypedParam(pnh, "min_height", band.min_height, "double");
-  readTypedParam(pnh, "max_height", band.max_height, "double");
-  readTypedParam(pnh, "hole_detection", band.hole_detection, "bool");
-  readTypedParam(pnh, "hole_depth", band.hole_depth, "double");
-  ScanParams& scan = p.scan;
-  readTypedParam(pnh, "angle_min", scan.angle_min, "double");
-  readTypedParam(pnh, "angle_max", scan.angle_max, "double");
-  readTypedParam(pnh, "angle_increment", scan.angle_increment, "double");
-  readTypedParam(pnh, "range_min", scan.range_min, "double");
-  readTypedParam(pnh, "range_max", scan.range_max, "double");
-  readTypedParam(pnh, "too_close_at_range_min", scan.too_close_at_range_min, "bool");
-  readTypedParam(pnh, "use_inf", scan.use_inf, "bool");
-  readTypedParam(pnh, "inf_epsilon", scan.inf_epsilon, "double");
-  readTypedParam(pnh, "range_noise_std", p.noise.range_noise_std, "double");
-  readTypedParam(pnh, "range_noise_std_per_m2", p.noise.range_noise_std_per_m2, "double");
-  InputParams& input = p.input;
-  readTypedParam(pnh, "row_stride", input.row_stride, "int");
-  readTypedParam(pnh, "column_stride", input.column_stride, "int");
-  readTypedParam(pnh, "intensity_field", input.intensity_field, "string");
-  readTypedParam(pnh, "depth_image_rectified", input.depth_image_rectified, "bool");
-  readTypedParam(pnh, "publish_filtered_cloud", p.publish_filtered_cloud, "bool");
+  reader.readFields(p);
   p.validate();
   return p;
 }
@@ -74,8 +86,9 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
     input_(input),
     reading_(reading),
     input_topic_(nh.resolveName(input == DepthInput::Cloud ? "cloud_in" : "image")),
-    params_(loadParameters(private_nh)),
-    queue_size_(readQueueSize(private_nh)),
+    reader_(private_nh),
+    params_(loadParameters(reader_)),
+    queue_size_(params_.input.queue_size),
     tf_buffer_(ros::Duration(params_.transform.tf_buffer_duration)),
     lazy_([this] { subscribeInput(); }, [this] { unsubscribeInput(); }),
     projector_(params_),
@@ -89,7 +102,8 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
   tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, private_nh_.getNamespace());
   std::vector<std::string> self_filter_warnings;
   self_filter_ =
-    laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(private_nh_), nh_, self_filter_warnings);
+    laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(reader_), nh_, self_filter_warnings);
+  reader_.warnUnknown();
   for (const std::string& warning : self_filter_warnings)
     ROS_WARN("[%s] self filter: %s", private_nh_.getNamespace().c_str(), warning.c_str());
   // A message waits for its own transform and for those of the robot's parts at its stamp.
@@ -462,32 +476,16 @@ void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* byt
 void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level*/)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  auto write = [&config](const Parameters& p) {
-    config.floor_height = p.band.floor_height;
-    config.min_height = p.band.min_height;
-    config.max_height = p.band.max_height;
-    config.hole_detection = p.band.hole_detection;
-    config.hole_depth = p.band.hole_depth;
-    config.range_min = p.scan.range_min;
-    config.range_max = p.scan.range_max;
-  };
   if (first_reconfigure_)
   {
     // The server's first call carries its clamped copy of the start-up values (it cannot hold
     // "no limit" = inf): the loaded, validated parameters win, and the server shows them.
     first_reconfigure_ = false;
-    write(params_);
+    toConfig(params_, config);
     return;
   }
   Parameters p = params_;
-  // What dynamic_reconfigure tunes: the whole band and the scan's range limits.
-  p.band.floor_height = config.floor_height;
-  p.band.min_height = config.min_height;
-  p.band.max_height = config.max_height;
-  p.band.hole_detection = config.hole_detection;
-  p.band.hole_depth = config.hole_depth;
-  p.scan.range_min = config.range_min;
-  p.scan.range_max = config.range_max;
+  fromConfig(config, p);  // what dynamic_reconfigure tunes: the .cfg's fields
   try
   {
     projector_.setParameters(p);  // validates
@@ -500,7 +498,7 @@ void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level
   {
     ROS_WARN("[%s] rejected a dynamic_reconfigure change: %s; keeping the previous values",
              private_nh_.getNamespace().c_str(), describe(e).c_str());
-    write(params_);
+    toConfig(params_, config);
   }
 }
 

@@ -81,6 +81,7 @@ void InputParams::validate() const
 {
   require(row_stride >= 1, "row_stride", "must be >= 1");
   require(column_stride >= 1, "column_stride", "must be >= 1");
+  require(queue_size >= 1, "queue_size", "must be >= 1");
 }
 
 void Parameters::validate() const

@@ -8,30 +8,29 @@ namespace depth_filter_scan_converter
 {
 RangeScanParameters loadRangeScanParameters(const ros::NodeHandle& pnh)
 {
+  laserscan_common::ParameterReader reader(pnh);
   RangeScanParameters p;
-  readTypedParam(pnh, "arc_width_scale", p.arc_width_scale, "double");
-  readTypedParam(pnh, "arc_width", p.arc_width, "double");
-  readTypedParam(pnh, "angle_increment", p.angle_increment, "double");
-  readTypedParam(pnh, "min_consecutive_readings", p.min_consecutive_readings, "int");
+  reader.readFields(p);
   p.validate();
+  reader.warnUnknown();
   return p;
 }
 
 RangeScanConverter::RangeScanConverter(ros::NodeHandle nh, ros::NodeHandle private_nh)
   : nh_(nh),
     private_nh_(private_nh),
-    queue_size_(readQueueSize(private_nh)),
+    params_(loadRangeScanParameters(private_nh)),
     lazy_(
       [this] {
         {
           std::lock_guard<std::mutex> state(mutex_);
           converter_.reset();  // readings from before a pause do not confirm new ones
         }
-        range_sub_ =
-          nh_.subscribe("range_in", static_cast<std::uint32_t>(queue_size_), &RangeScanConverter::rangeArrived, this);
+        range_sub_ = nh_.subscribe("range_in", static_cast<std::uint32_t>(params_.queue_size),
+                                   &RangeScanConverter::rangeArrived, this);
       },
       [this] { range_sub_.shutdown(); }),
-    converter_(loadRangeScanParameters(private_nh)),
+    converter_(params_),
     diagnostics_(nh, private_nh, [this](diagnostic_updater::DiagnosticStatusWrapper& status) { diagnose(status); })
 {
   // Lazy: subscribe to the ranges only while someone listens to the scan.

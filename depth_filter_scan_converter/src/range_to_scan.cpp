@@ -36,6 +36,7 @@ void RangeScanParameters::validate() const
   require(kTwoPi / angle_increment < static_cast<double>(kMaxBeams), "angle_increment",
           "gives more than 100000 beams over one turn");
   require(min_consecutive_readings >= 1, "min_consecutive_readings", "must be >= 1");
+  require(queue_size >= 1, "queue_size", "must be >= 1");
 }
 
 const char* readingKindName(ReadingKind kind)

@@ -8,6 +8,7 @@
 
 #include "laserscan_common/message_checks.hpp"
 #include "laserscan_common/parameter_error.hpp"
+#include "laserscan_common/parameter_reader.hpp"
 #include "laserscan_common/robot_shapes.hpp"
 
 namespace laserscan_common
@@ -16,23 +17,18 @@ namespace
 {
 using XmlRpc::XmlRpcValue;
 
-bool isNumber(const XmlRpcValue& v)
-{
-  return v.getType() == XmlRpcValue::TypeDouble || v.getType() == XmlRpcValue::TypeInt;
-}
-
 double number(XmlRpcValue& v, const std::string& name)
 {
-  if (!isNumber(v))
-    throw ParameterError(name, "must be a number");
-  return v.getType() == XmlRpcValue::TypeInt ? static_cast<double>(static_cast<int>(v)) : static_cast<double>(v);
+  double out = 0.0;
+  fromXmlRpc(v, name, out);
+  return out;
 }
 
 std::string text(XmlRpcValue& v, const std::string& name)
 {
-  if (v.getType() != XmlRpcValue::TypeString)
-    throw ParameterError(name, "must be a string");
-  return static_cast<std::string>(v);
+  std::string out;
+  fromXmlRpc(v, name, out);
+  return out;
 }
 
 std::vector<double> numbers(XmlRpcValue& v, const std::string& name, int count)
@@ -126,31 +122,21 @@ void SelfFilterParams::validate() const
     shapes[i].validate("self_filter/shapes[" + std::to_string(i) + "]");
 }
 
-SelfFilterParams readSelfFilterParams(const ros::NodeHandle& private_nh, const std::string& key)
+SelfFilterParams readSelfFilterParams(ParameterReader& reader, const std::string& key)
 {
   SelfFilterParams p;
   XmlRpcValue block;
-  if (!private_nh.getParam(key, block))
+  if (!reader.readRaw(key, block))
     return p;
   if (block.getType() != XmlRpcValue::TypeStruct)
     throw ParameterError(key, "must be a dictionary (use_robot_description, links, padding, shapes)");
   onlyKeys(block, key, { "use_robot_description", "links", "padding", "shapes" });
   if (block.hasMember("use_robot_description"))
-  {
-    if (block["use_robot_description"].getType() != XmlRpcValue::TypeBoolean)
-      throw ParameterError(key + "/use_robot_description", "must be a boolean");
-    p.use_robot_description = static_cast<bool>(block["use_robot_description"]);
-  }
+    fromXmlRpc(block["use_robot_description"], key + "/use_robot_description", p.use_robot_description);
   if (block.hasMember("padding"))
-    p.padding = number(block["padding"], key + "/padding");
+    fromXmlRpc(block["padding"], key + "/padding", p.padding);
   if (block.hasMember("links"))
-  {
-    XmlRpcValue& links = block["links"];
-    if (links.getType() != XmlRpcValue::TypeArray)
-      throw ParameterError(key + "/links", "must be a list of link names");
-    for (int i = 0; i < links.size(); ++i)
-      p.links.push_back(text(links[i], key + "/links[" + std::to_string(i) + "]"));
-  }
+    fromXmlRpc(block["links"], key + "/links", p.links);
   if (block.hasMember("shapes"))
   {
     XmlRpcValue& shapes = block["shapes"];

@@ -11,6 +11,7 @@
 #include "laserscan_common/fast_math.hpp"
 #include "laserscan_common/message_checks.hpp"
 #include "laserscan_common/parameter_error.hpp"
+#include "laserscan_common/parameter_table.hpp"
 #include "laserscan_common/throttle.hpp"
 
 namespace lc = laserscan_common;
@@ -339,4 +340,15 @@ int main(int argc, char** argv)
 {
   testing::InitGoogleTest(&argc, argv);
   return RUN_ALL_TESTS();
+}
+
+TEST(ParameterTable, ClosestNameIsTheLikeliestTypoOnly)
+{
+  const std::vector<std::string> known = { "min_height", "max_height", "range_min", "publish_rate" };
+  EXPECT_EQ(lc::closestName("min_hieght", known), "min_height");
+  EXPECT_EQ(lc::closestName("max_heigth", known), "max_height");
+  EXPECT_EQ(lc::closestName("publish_rte", known), "publish_rate");
+  EXPECT_EQ(lc::closestName("my_block", known), "");  // nothing alike: no suggestion
+  EXPECT_DOUBLE_EQ(lc::nameSimilarity("abc", "abc"), 1.0);
+  EXPECT_DOUBLE_EQ(lc::nameSimilarity("abcd", "abxy"), 0.5);
 }

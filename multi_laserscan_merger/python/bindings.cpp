@@ -6,6 +6,7 @@
 
 #include "laserscan_common/fast_math.hpp"
 #include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/parameter_table_python.hpp"
 #include "multi_laserscan_merger/merger_core.hpp"
 
 namespace py = pybind11;
@@ -22,36 +23,12 @@ void get(const py::dict& d, const char* key, T& value)
 
 OutputParams outputFromDict(const py::dict& d)
 {
-  OutputParams o;
-  get(d, "output_frame", o.frame);
-  get(d, "angle_min", o.angle_min);
-  get(d, "angle_max", o.angle_max);
-  get(d, "angle_increment", o.angle_increment);
-  get(d, "range_min", o.range_min);
-  get(d, "range_max", o.range_max);
-  get(d, "use_inf", o.use_inf);
-  get(d, "inf_epsilon", o.inf_epsilon);
-  get(d, "finite_only", o.finite_only);
-  get(d, "footprint", o.footprint);
-  return o;
+  return laserscan_common::python::fromDict<OutputParams>(d);
 }
 
 SourceParams sourceFromDict(const py::dict& d)
 {
-  SourceParams s;
-  get(d, "name", s.name);
-  get(d, "topic", s.topic);
-  get(d, "timeout", s.timeout);
-  get(d, "angle_min", s.angle_min);
-  get(d, "angle_max", s.angle_max);
-  get(d, "range_min", s.range_min);
-  get(d, "range_max", s.range_max);
-  get(d, "deskew", s.deskew);
-  get(d, "too_close_is_obstacle", s.too_close_is_obstacle);
-  get(d, "footprint_filter", s.footprint_filter);
-  get(d, "self_filter", s.self_filter);
-  get(d, "drop_explained_within", s.drop_explained_within);
-  return s;
+  return laserscan_common::python::fromDict<SourceParams>(d);
 }
 
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
@@ -115,6 +92,10 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
   py::register_local_exception<ParameterError>(m, "ParameterError", PyExc_ValueError);
   // Defaults of the parameters the Merger constructor takes beside output and sources (s).
   m.attr("DEFAULT_SYNC_WINDOW") = MergerParams().sync_window;
+  m.def("parameter_table", &laserscan_common::python::table<MergerParams>,
+        "The field table of the merger's top level (the export; sources and self_filter apart)");
+  m.def("source_parameter_table", &laserscan_common::python::table<SourceParams>,
+        "The field table of one sources entry (the export)");
 
   m.def("fast_atan2", &laserscan_common::fastAtan2, py::arg("y"), py::arg("x"));
   m.def(

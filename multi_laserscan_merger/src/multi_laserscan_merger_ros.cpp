@@ -16,120 +16,6 @@ namespace multi_laserscan_merger
 
 namespace
 {
-bool isNumber(const XmlRpc::XmlRpcValue& v)
-{
-  return v.getType() == XmlRpc::XmlRpcValue::TypeDouble || v.getType() == XmlRpc::XmlRpcValue::TypeInt;
-}
-
-double toDouble(XmlRpc::XmlRpcValue& v)
-{
-  return v.getType() == XmlRpc::XmlRpcValue::TypeInt ? static_cast<double>(static_cast<int>(v))
-                                                     : static_cast<double>(v);
-}
-
-void readDouble(const ros::NodeHandle& nh, const std::string& name, double& value)
-{
-  XmlRpc::XmlRpcValue v;
-  if (!nh.getParam(name, v))
-    return;  // keep the default
-  if (!isNumber(v))
-    throw ParameterError(name, "must be a number");
-  value = toDouble(v);
-}
-
-void readBool(const ros::NodeHandle& nh, const std::string& name, bool& value)
-{
-  XmlRpc::XmlRpcValue v;
-  if (!nh.getParam(name, v))
-    return;
-  if (v.getType() != XmlRpc::XmlRpcValue::TypeBoolean)
-    throw ParameterError(name, "must be true or false");
-  value = static_cast<bool>(v);
-}
-
-void readString(const ros::NodeHandle& nh, const std::string& name, std::string& value)
-{
-  XmlRpc::XmlRpcValue v;
-  if (!nh.getParam(name, v))
-    return;
-  if (v.getType() != XmlRpc::XmlRpcValue::TypeString)
-    throw ParameterError(name, "must be a string");
-  value = static_cast<std::string>(v);
-}
-
-SourceParams readSource(XmlRpc::XmlRpcValue& item, const std::string& prefix)
-{
-  if (item.getType() != XmlRpc::XmlRpcValue::TypeStruct)
-    throw ParameterError(prefix, "must be a dictionary {name, topic, timeout, angle_min, ...}");
-  SourceParams s;
-  static const std::set<std::string> known = { "name",
-                                               "topic",
-                                               "timeout",
-                                               "angle_min",
-                                               "angle_max",
-                                               "range_min",
-                                               "range_max",
-                                               "deskew",
-                                               "too_close_is_obstacle",
-                                               "footprint_filter",
-                                               "self_filter",
-                                               "drop_explained_within" };
-  for (auto& kv : item)
-    if (known.count(kv.first) == 0)
-      throw ParameterError(prefix + "." + kv.first, "unknown key (a typo?)");
-  auto number = [&](const char* key, double& value) {
-    if (!item.hasMember(key))
-      return;
-    if (!isNumber(item[key]))
-      throw ParameterError(prefix + "." + key, "must be a number");
-    value = toDouble(item[key]);
-  };
-  auto text = [&](const char* key, std::string& value) {
-    if (!item.hasMember(key))
-      return;
-    if (item[key].getType() != XmlRpc::XmlRpcValue::TypeString)
-      throw ParameterError(prefix + "." + key, "must be a string");
-    value = static_cast<std::string>(item[key]);
-  };
-  text("name", s.name);
-  text("topic", s.topic);
-  number("timeout", s.timeout);
-  number("angle_min", s.angle_min);
-  number("angle_max", s.angle_max);
-  number("range_min", s.range_min);
-  number("range_max", s.range_max);
-  number("drop_explained_within", s.drop_explained_within);
-  auto flag = [&](const char* key, bool& value) {
-    if (!item.hasMember(key))
-      return;
-    if (item[key].getType() != XmlRpc::XmlRpcValue::TypeBoolean)
-      throw ParameterError(prefix + "." + key, "must be true or false");
-    value = static_cast<bool>(item[key]);
-  };
-  flag("deskew", s.deskew);
-  flag("too_close_is_obstacle", s.too_close_is_obstacle);
-  flag("footprint_filter", s.footprint_filter);
-  flag("self_filter", s.self_filter);
-  return s;
-}
-
-void readPolygon(const ros::NodeHandle& nh, const std::string& name, std::vector<std::array<double, 2>>& polygon)
-{
-  XmlRpc::XmlRpcValue v;
-  if (!nh.getParam(name, v))
-    return;
-  if (v.getType() != XmlRpc::XmlRpcValue::TypeArray)
-    throw ParameterError(name, "must be a list of [x, y] points (m, in output_frame)");
-  polygon.clear();
-  for (int i = 0; i < v.size(); ++i)
-  {
-    XmlRpc::XmlRpcValue& p = v[i];
-    if (p.getType() != XmlRpc::XmlRpcValue::TypeArray || p.size() != 2 || !isNumber(p[0]) || !isNumber(p[1]))
-      throw ParameterError(name, "point " + std::to_string(i) + " is not a pair of numbers [x, y]");
-    polygon.push_back({ toDouble(p[0]), toDouble(p[1]) });
-  }
-}
-
 ScanView viewOf(const sensor_msgs::LaserScan& m)
 {
   ScanView v;
@@ -149,44 +35,36 @@ ScanView viewOf(const sensor_msgs::LaserScan& m)
 
 }  // namespace
 
-MergerParams loadParams(const ros::NodeHandle& pnh)
+MergerParams loadParams(laserscan_common::ParameterReader& reader)
 {
   MergerParams p;
-  readString(pnh, "output_frame", p.output.frame);
-  readDouble(pnh, "angle_min", p.output.angle_min);
-  readDouble(pnh, "angle_max", p.output.angle_max);
-  readDouble(pnh, "angle_increment", p.output.angle_increment);
-  readDouble(pnh, "range_min", p.output.range_min);
-  readDouble(pnh, "range_max", p.output.range_max);
-  readBool(pnh, "use_inf", p.output.use_inf);
-  readDouble(pnh, "inf_epsilon", p.output.inf_epsilon);
-  readBool(pnh, "finite_only", p.output.finite_only);
-  readPolygon(pnh, "footprint", p.output.footprint);
-  readString(pnh, "odom_topic", p.odom_topic);
-  double queue = p.odom_queue_size;
-  readDouble(pnh, "odom_queue_size", queue);
-  if (queue != std::floor(queue) || queue > 1e6)
-    throw ParameterError("odom_queue_size", "must be a whole number of messages");
-  p.odom_queue_size = static_cast<int>(queue);
-  readDouble(pnh, "publish_rate", p.publish_rate);
-  readDouble(pnh, "sync_window", p.sync_window);
-
+  reader.readFields(p);
   XmlRpc::XmlRpcValue list;
-  if (!pnh.getParam("sources", list))
-    throw ParameterError(
-      "sources",
-      "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
-      "range_max, deskew, too_close_is_obstacle, footprint_filter, self_filter, drop_explained_within}");
+  if (!reader.readRaw("sources", list))
+    throw ParameterError("sources",
+                         "missing: a list of {name, topic, timeout, angle_min, angle_max, range_min, "
+                         "range_max, deskew, too_close_is_obstacle, footprint_filter, self_filter, "
+                         "drop_explained_within}");
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray)
     throw ParameterError("sources", "must be a list of dictionaries");
   for (int i = 0; i < list.size(); ++i)
-    p.sources.push_back(readSource(list[i], "sources[" + std::to_string(i) + "]"));
+  {
+    const std::string prefix = "sources[" + std::to_string(i) + "]";
+    if (list[i].getType() != XmlRpc::XmlRpcValue::TypeStruct)
+      throw ParameterError(prefix, "must be a dictionary {name, topic, timeout, angle_min, ...}");
+    p.sources.emplace_back();
+    laserscan_common::readDictionary(list[i], prefix, p.sources.back());
+  }
   p.validate();
   return p;
 }
 
 MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
-  : nh_(nh), private_nh_(private_nh), name_(private_nh.getNamespace()), params_(loadParams(private_nh))
+  : nh_(nh),
+    private_nh_(private_nh),
+    name_(private_nh.getNamespace()),
+    reader_(private_nh),
+    params_(loadParams(reader_))
 {
   core_ = std::make_unique<MergerCore>(params_);
   odom_topic_ = params_.odom_topic.empty() ? "" : nh_.resolveName(params_.odom_topic);
@@ -201,7 +79,8 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   sources_.resize(params_.sources.size());
   std::vector<std::string> self_filter_warnings;
   const laserscan_common::SelfFilter self_filter =
-    laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(private_nh_), nh_, self_filter_warnings);
+    laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(reader_), nh_, self_filter_warnings);
+  reader_.warnUnknown();
   for (const std::string& warning : self_filter_warnings)
     ROS_WARN("%s: self filter: %s", name_.c_str(), warning.c_str());
   for (std::size_t i = 0; i < sources_.size(); ++i)

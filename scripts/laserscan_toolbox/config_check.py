@@ -1,9 +1,9 @@
 """Validate converter and merger YAML files before a robot uses them.
 
-The schema below is the one place that lists the nodes' private parameters with their
-types, units and limits; it follows the parameter structs of
-depth_filter_scan_converter and multi_laserscan_merger (names and defaults as in their
-READMEs). A problem is reported as ``path.to.key: reason``.
+The schema is built from the C++ parameter tables (laserscan_common/parameter_table.hpp),
+exported to parameter_tables.json (scripts/export_parameters), so names, types, units,
+defaults and limits are declared once, in the structs; the cross-field rules below follow
+the structs' validate(). A problem is reported as ``path.to.key: reason``.
 
 A YAML may hold the parameters directly (as loaded with ``rosparam`` into the node's
 private namespace) or nested under one or more node names, e.g.
@@ -15,6 +15,8 @@ import math
 import os
 
 import yaml
+
+from laserscan_toolbox import parameter_tables
 
 PI_TOL = 1e-6  # the nodes' own tolerance above a limit of pi or 2 pi
 
@@ -37,100 +39,42 @@ class Key:
 
 
 INF = float("inf")
+# The C++ tables' types as the checker names them.
+_KINDS = {"double": "float", "int": "int", "bool": "bool", "string": "str", "polygon": "polygon"}
 
-CONVERTER = {
-    "reference_frame": Key("str", "base_link", nonempty=True,
-                           doc="frame of the constraints and of the output scan (z up)"),
-    "floor_height": Key("float", 0.0, "m", doc="z of the floor in reference_frame"),
-    "min_height": Key("float", 0.05, "m", doc="lower edge of the obstacle band above the floor"),
-    "max_height": Key("float", 1.0, "m", doc="upper edge of the obstacle band above the floor"),
-    "angle_min": Key("float", -math.pi, "rad", angle=2 * math.pi),
-    "angle_max": Key("float", math.pi, "rad", angle=2 * math.pi),
-    "angle_increment": Key("float", math.pi / 720, "rad", lo=0.0, lo_open=True),
-    "range_min": Key("float", 0.0, "m", lo=0.0),
-    "range_max": Key("float", 10.0, "m", lo=0.0, lo_open=True),
-    "too_close_at_range_min": Key("bool", False,
-                                  doc="a beam nearer than range_min reads range_min instead of -Inf"),
-    "hole_detection": Key("bool", False),
-    "hole_depth": Key("float", 0.05, "m", lo=0.0),
-    "range_noise_std": Key("float", 0.0, "m", lo=0.0, finite=True,
-                           doc="a point's range noise std at range 0 (0 and 0: closest point)"),
-    "range_noise_std_per_m2": Key("float", 0.0, "1/m", lo=0.0, finite=True,
-                                  doc="growth of that std with range^2 (depth cameras)"),
-    "transform_tolerance": Key("float", 0.1, "s", lo=0.0),
-    "row_stride": Key("int", 1, lo=1),
-    "column_stride": Key("int", 1, lo=1),
-    "use_inf": Key("bool", True),
-    "inf_epsilon": Key("float", 1.0, "m", lo=0.0),
-    "intensity_field": Key("str", ""),
-    "publish_filtered_cloud": Key("bool", False),
-    "tf_buffer_duration": Key("float", 10.0, "s", lo=0.0, lo_open=True),
-    "depth_image_rectified": Key("bool", True,
-                                 doc="depth image input: intrinsics from camera_info's P (rectified), else K"),
-    "queue_size": Key("int", 10, lo=1, doc="clouds waiting for their transform"),
-    "self_filter": Key("self_filter", {}, doc="the robot's own parts: points inside are not projected"),
-}
+
+def _key(field):
+    """A Key from one field of the C++ tables' export (parameter_tables.json)."""
+    return Key(_KINDS[field["type"]], field["default"], field["unit"],
+               lo=None if field["lo"] == -INF else field["lo"],
+               hi=None if field["hi"] == INF else field["hi"], lo_open=field["lo_open"],
+               angle=field["angle"] or None, nonempty=field["nonempty"], doc=field["meaning"],
+               finite=field["finite"])
+
+
+_TABLES = parameter_tables.load()
+SELF_FILTER_KEY = Key("self_filter", {}, doc="the robot's own parts (laserscan_common's self filter)")
+
+# Each node's private parameters: its struct's table, plus the blocks read outside it.
+CONVERTER = {f["name"]: _key(f) for f in _TABLES["converter"]}
+CONVERTER["self_filter"] = SELF_FILTER_KEY
 CONVERTER_PAIRS = [("min_height", "max_height"), ("angle_min", "angle_max"),
                    ("range_min", "range_max")]
 
-MERGER = {
-    "output_frame": Key("str", "base_link", nonempty=True),
-    "angle_min": Key("float", -math.pi, "rad", angle=2 * math.pi),
-    "angle_max": Key("float", math.pi, "rad", angle=2 * math.pi),
-    "angle_increment": Key("float", math.pi / 720, "rad", lo=0.0, lo_open=True),
-    "range_min": Key("float", 0.0, "m", lo=0.0),
-    "range_max": Key("float", 30.0, "m", lo=0.0, lo_open=True),
-    "use_inf": Key("bool", True),
-    "inf_epsilon": Key("float", 1.0, "m", lo=0.0),
-    "finite_only": Key("bool", False, doc="every range finite (needs use_inf false, range_min > 0)"),
-    "footprint": Key("polygon", [], "m", doc="robot outline in output_frame: returns inside are dropped"),
-    "odom_topic": Key("str", "odom", doc="empty disables motion compensation"),
-    # the merger reads it as a number that must be whole (100 and 100.0 both work)
-    "odom_queue_size": Key("whole", 100, lo=2, doc="odometry poses kept (interpolation needs two)"),
-    "publish_rate": Key("float", 0.0, "Hz", lo=0.0),
-    "sync_window": Key("float", 0.01, "s", lo=0.0, hi=1.0, finite=True,
-                       doc="how long an output waits for other sources' scans due at its stamp; 0 = never"),
-    "self_filter": Key("self_filter", {}, doc="the robot's own parts: returns inside are dropped"),
-    "sources": None,  # checked by check_sources
-}
+MERGER = {f["name"]: _key(f) for f in _TABLES["merger"]}
+MERGER["self_filter"] = SELF_FILTER_KEY
+MERGER["sources"] = None  # checked by check_sources
 MERGER_PAIRS = [("angle_min", "angle_max"), ("range_min", "range_max")]
 
-SOURCE = {
-    "name": Key("str", None, nonempty=True),
-    "topic": Key("str", None, nonempty=True),
-    "timeout": Key("float", 1.0, "s", lo=0.0, lo_open=True),
-    "angle_min": Key("float", -math.pi, "rad", angle=math.pi),
-    "angle_max": Key("float", math.pi, "rad", angle=math.pi),
-    "range_min": Key("float", 0.0, "m", lo=0.0),
-    "range_max": Key("float", INF, "m", lo=0.0, lo_open=True),
-    "deskew": Key("bool", False),
-    "too_close_is_obstacle": Key("bool", True, doc="-Inf is an obstacle at the sensor's range_min"),
-    "footprint_filter": Key("bool", True, doc="false: the merger's footprint does not apply"),
-    "self_filter": Key("bool", True, doc="false: the merger's self_filter block does not apply"),
-    "drop_explained_within": Key("float", 0.0, "m", lo=0.0, finite=True,
-                                 doc="> 0: a scan with a return this close to another source's is dropped "
-                                     "(sonar arcs); 0 = off"),
-}
+SOURCE = {f["name"]: _key(f) for f in _TABLES["source"]}
 SOURCE_REQUIRED = ("name", "topic")
 # angle_min > angle_max is allowed for a source mask: it wraps around +-pi.
 SOURCE_PAIRS = [("range_min", "range_max")]
 
-SCHEMAS = {"converter": CONVERTER, "merger": MERGER}
-
 # range_scan_converter (depth_filter_scan_converter's RangeScanConverterNodelet): sensor_msgs/Range
 # -> LaserScan arc. The sensor's own limits come with each message; these shape the arc.
-RANGE = {
-    "arc_width_scale": Key("float", 1.0, lo=0.0, hi=4.0, lo_open=True,
-                           doc="the arc spans field_of_view times this"),
-    "arc_width": Key("float", 0.0, "rad", lo=0.0, hi=2 * math.pi + PI_TOL,
-                     doc="> 0 overrides field_of_view * arc_width_scale"),
-    "angle_increment": Key("float", 0.004363323, "rad", lo=2 * math.pi / 100000, lo_open=True,
-                           doc="largest beam spacing of the arc"),
-    "min_consecutive_readings": Key("int", 1, lo=1,
-                                    doc="in-range readings in a row before one is an obstacle"),
-    "queue_size": Key("int", 10, lo=1, doc="readings waiting to be converted"),
-}
-SCHEMAS["range"] = RANGE
+RANGE = {f["name"]: _key(f) for f in _TABLES["range"]}
+SCHEMAS = {"converter": CONVERTER, "merger": MERGER, "range": RANGE}
 RANGE_KEYS_ONLY = {"arc_width_scale", "arc_width", "min_consecutive_readings"}
 
 
@@ -163,10 +107,11 @@ def check_value(path, key, value):
             if not -key.angle - PI_TOL <= v <= key.angle + PI_TOL:
                 limit = "pi" if key.angle == math.pi else "2 pi"
                 return ["%s: angle %g rad is outside [-%s, %s]" % (path, v, limit, limit)]
-    elif key.kind in ("int", "whole"):
-        whole_float = (key.kind == "whole" and isinstance(value, float) and value.is_integer())
+    elif key.kind == "int":
+        # The nodes' one rule for numbers: 2.0 is the whole number 2, 2.5 is not.
+        whole_float = isinstance(value, float) and value.is_integer()
         if isinstance(value, bool) or not (isinstance(value, int) or whole_float):
-            return ["%s: expected an integer, got %s %r" % (path, _type_name(value), value)]
+            return ["%s: expected a whole number, got %s %r" % (path, _type_name(value), value)]
         v = value
     elif key.kind == "bool":
         if not isinstance(value, bool):

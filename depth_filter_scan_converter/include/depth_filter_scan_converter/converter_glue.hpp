@@ -1,5 +1,5 @@
-// What the ROS classes of the package's converters (depth cloud or image, range) share: strict
-// parameter reading, throttled warnings, lazy subscription, diagnostics. Used by the package only.
+// What the ROS classes of the package's converters (depth cloud or image, range) share: the
+// parameter error's log text, throttled warnings, lazy subscription, diagnostics. Used by the package only.
 #pragma once
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -17,24 +17,11 @@
 
 namespace depth_filter_scan_converter
 {
-/// Reads `name` into `value` if it is set; throws ParameterError naming the parameter and the
-/// expected `type` when it is set to something else (a value of the wrong type is an error, not
-/// a default).
-template <typename T>
-void readTypedParam(const ros::NodeHandle& nh, const std::string& name, T& value, const char* type)
-{
-  if (nh.hasParam(name) && !nh.getParam(name, value))
-    throw laserscan_common::ParameterError(name, std::string("must be of type ") + type);
-}
-
 /// How the nodes name a bad parameter in their log: "parameter '<name>': <reason>".
 inline std::string describe(const laserscan_common::ParameterError& e)
 {
   return "parameter '" + e.parameter() + "': " + e.reason();
 }
-
-/// The private parameter queue_size (default 10, >= 1): depth of the input's queues.
-int readQueueSize(const ros::NodeHandle& private_nh);
 
 // Per converter, not per call site as ROS_WARN_THROTTLE.
 using laserscan_common::WarningThrottle;

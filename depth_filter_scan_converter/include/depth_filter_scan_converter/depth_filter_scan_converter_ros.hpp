@@ -31,14 +31,15 @@
 #include "depth_filter_scan_converter/parameters.hpp"
 #include "depth_filter_scan_converter/projector.hpp"
 #include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/parameter_reader.hpp"
 #include "laserscan_common/self_filter.hpp"
 #include "laserscan_common/transform_reader.hpp"
 
 namespace depth_filter_scan_converter
 {
-/// Reads every parameter from the private namespace (defaults from Parameters) and validates.
-/// Throws laserscan_common::ParameterError naming the parameter that is wrong (type or value).
-Parameters loadParameters(const ros::NodeHandle& private_nh);
+/// Reads every field of Parameters' table from the private namespace (defaults from the struct)
+/// and validates. Throws laserscan_common::ParameterError naming the parameter that is wrong.
+Parameters loadParameters(laserscan_common::ParameterReader& reader);
 
 /// What the converter reads: a PointCloud2 on cloud_in, or a depth image on image with its
 /// CameraInfo on camera_info (the pixels are turned into points inside the projection).
@@ -139,7 +140,8 @@ private:
   ros::NodeHandle nh_, private_nh_;
   const DepthInput input_;
   const CloudReading reading_;
-  std::string input_topic_;  // resolved, for messages
+  std::string input_topic_;                   // resolved, for messages
+  laserscan_common::ParameterReader reader_;  // knows every name read, for the unknown-key warning
   Parameters params_;
   int queue_size_;
 

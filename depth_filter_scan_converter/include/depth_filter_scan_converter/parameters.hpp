@@ -7,12 +7,15 @@
 #include <cmath>
 #include <cstddef>
 #include <string>
+#include <type_traits>
 
 #include "laserscan_common/parameter_error.hpp"
+#include "laserscan_common/parameter_table.hpp"
 
 namespace depth_filter_scan_converter
 {
 using laserscan_common::ParameterError;
+using laserscan_common::ParamInfo;
 
 /// Where the constraints and the scan live, and how long tf may take.
 struct TransformParams
@@ -23,6 +26,23 @@ struct TransformParams
 
   void validate() const;
 };
+
+/// The table of TransformParams (laserscan_common/parameter_table.hpp); P is it or const it.
+template <class P, class V, std::enable_if_t<std::is_same_v<std::decay_t<P>, TransformParams>, int> = 0>
+void visitFields(P& p, V&& visit)
+{
+  visit(p.reference_frame, ParamInfo("reference_frame", "",
+                                     "frame of the constraints and of the output scan; its z axis points up; no "
+                                     "leading `/` (tf2 refuses it: a start-up error)")
+                             .nonEmpty());
+  visit(
+    p.transform_tolerance,
+    ParamInfo(
+      "transform_tolerance", "s",
+      "how long an input may wait for its transform, >= 0; one delivered later is dropped (counted in the diagnostics)")
+      .atLeast(0.0));
+  visit(p.tf_buffer_duration, ParamInfo("tf_buffer_duration", "s", "length of the node's tf buffer, > 0").above(0.0));
+}
 
 /// The height band in reference_frame, and holes below the floor.
 struct BandParams
@@ -35,6 +55,23 @@ struct BandParams
 
   void validate() const;
 };
+
+/// The table of BandParams (laserscan_common/parameter_table.hpp); P is it or const it.
+template <class P, class V, std::enable_if_t<std::is_same_v<std::decay_t<P>, BandParams>, int> = 0>
+void visitFields(P& p, V&& visit)
+{
+  visit(p.floor_height,
+        ParamInfo("floor_height", "m",
+                  "z of the floor in `reference_frame` (e.g. `-0.147` when base_link is 14.7 cm above the floor)"));
+  visit(p.min_height, ParamInfo("min_height", "m", "bottom of the obstacle band, above the floor (may be `-.inf`)"));
+  visit(p.max_height,
+        ParamInfo("max_height", "m",
+                  "top of the obstacle band, above the floor (may be `.inf`); `min_height < max_height`"));
+  visit(p.hole_detection,
+        ParamInfo("hole_detection", "", "points lower than `floor_height - hole_depth` become obstacles (rule 2)"));
+  visit(p.hole_depth,
+        ParamInfo("hole_depth", "m", "how far below the floor a point must be to be a hole, >= 0").atLeast(0.0));
+}
 
 /// Geometry of the scan and the values it writes (REP 117).
 struct ScanParams
@@ -62,6 +99,39 @@ struct ScanParams
   float tooCloseValue() const;
 };
 
+/// The table of ScanParams (laserscan_common/parameter_table.hpp); P is it or const it.
+template <class P, class V, std::enable_if_t<std::is_same_v<std::decay_t<P>, ScanParams>, int> = 0>
+void visitFields(P& p, V&& visit)
+{
+  visit(p.angle_min, ParamInfo("angle_min", "rad", "first beam, around `reference_frame`'s z axis, in [-2 pi, 2 pi]")
+                       .angleWithin(2.0 * M_PI)
+                       .shownAs("`-pi`"));
+  visit(
+    p.angle_max,
+    ParamInfo("angle_max", "rad",
+              "last beam; `angle_min < angle_max`, `angle_max - angle_min` <= 2 pi (a scan covers at most one turn)")
+      .angleWithin(2.0 * M_PI)
+      .shownAs("`pi`"));
+  visit(p.angle_increment,
+        ParamInfo("angle_increment", "rad", "beam spacing, > 0").above(0.0).shownAs("`pi/720` (0.25 deg)"));
+  visit(p.range_min,
+        ParamInfo("range_min", "m",
+                  "smallest planar distance (from `reference_frame`'s origin) the scan reports, >= 0; a beam whose "
+                  "closest obstacle is nearer reads \"too close\" (see `too_close_at_range_min`), never \"no return\"")
+          .atLeast(0.0));
+  visit(p.range_max,
+        ParamInfo("range_max", "m",
+                  "largest planar distance kept (may be `.inf` when `use_inf` is true); `range_min < range_max`")
+          .above(0.0));
+  visit(p.too_close_at_range_min,
+        ParamInfo("too_close_at_range_min", "",
+                  "a too-close beam reads `-Inf` (REP 117: no marking, no clearing); true: it reads `range_min` (for "
+                  "consumers that drop `-Inf` but must still see something right in front of the camera)"));
+  visit(p.use_inf,
+        ParamInfo("use_inf", "", "\"no return\" is `+Inf` (REP 117); when false it is `range_max + inf_epsilon`"));
+  visit(p.inf_epsilon, ParamInfo("inf_epsilon", "m", "see `use_inf`, >= 0").atLeast(0.0));
+}
+
 /// Range noise of one point, std = range_noise_std + range_noise_std_per_m2 * range^2 (a depth
 /// camera's model). Both 0: each beam reads its closest point. Otherwise each beam reads the
 /// mean of its points within kClusterWidth std of its closest point, at most kClusterCap std
@@ -87,6 +157,25 @@ struct RangeNoiseParams
   double rangeNoiseStd(double range) const { return range_noise_std + range_noise_std_per_m2 * range * range; }
 };
 
+/// The table of RangeNoiseParams (laserscan_common/parameter_table.hpp); P is it or const it.
+template <class P, class V, std::enable_if_t<std::is_same_v<std::decay_t<P>, RangeNoiseParams>, int> = 0>
+void visitFields(P& p, V&& visit)
+{
+  visit(
+    p.range_noise_std,
+    ParamInfo(
+      "range_noise_std", "m",
+      "a point's range noise std at range 0, finite, >= 0; std(r) = `range_noise_std + range_noise_std_per_m2 * r^2`")
+      .atLeast(0.0)
+      .finiteOnly());
+  visit(p.range_noise_std_per_m2,
+        ParamInfo("range_noise_std_per_m2", "1/m",
+                  "growth of the noise std with range squared, finite, >= 0 (a depth camera's model). Both 0: each "
+                  "beam reads its closest point; otherwise the mean of its closest cluster (rule 6)")
+          .atLeast(0.0)
+          .finiteOnly());
+}
+
 /// Which points of the input are read, and how.
 struct InputParams
 {
@@ -94,9 +183,33 @@ struct InputParams
   int column_stride = 1;              ///< take every n-th column
   std::string intensity_field;        ///< empty: no intensities in the scan
   bool depth_image_rectified = true;  ///< depth images: intrinsics from camera_info's P, else K
+  int queue_size = 10;                ///< inputs waiting for their transform (ROS glue only)
 
   void validate() const;
 };
+
+/// The table of InputParams (laserscan_common/parameter_table.hpp); P is it or const it.
+template <class P, class V, std::enable_if_t<std::is_same_v<std::decay_t<P>, InputParams>, int> = 0>
+void visitFields(P& p, V&& visit)
+{
+  visit(p.row_stride,
+        ParamInfo("row_stride", "", "take every n-th row of an organized cloud or image, >= 1").atLeast(1));
+  visit(p.column_stride,
+        ParamInfo("column_stride", "", "take every n-th column (every n-th point of an unorganized cloud), >= 1")
+          .atLeast(1));
+  visit(p.intensity_field,
+        ParamInfo("intensity_field", "",
+                  "when set and present in the cloud, `intensities` carries that field (any PointField datatype) of "
+                  "the point chosen for each beam (0 where there is no return); when empty, `intensities` is empty"));
+  visit(p.depth_image_rectified,
+        ParamInfo("depth_image_rectified", "",
+                  "image node only: the image is rectified (`image_rect`), intrinsics from camera_info's `P`, as "
+                  "depth_image_proc does; false: from `K` (a raw image whose distortion is negligible)"));
+  visit(p.queue_size, ParamInfo("queue_size", "frames",
+                                "how many inputs may wait for their transform at once (the oldest is dropped first); "
+                                "for depth images also the camera_info queue, >= 1")
+                        .atLeast(1));
+}
 
 /// Everything the converter needs.
 struct Parameters
@@ -111,5 +224,17 @@ struct Parameters
   /// Throws ParameterError naming the first bad parameter and why.
   void validate() const;
 };
+
+/// The table of Parameters (laserscan_common/parameter_table.hpp); P is it or const it.
+template <class P, class V, std::enable_if_t<std::is_same_v<std::decay_t<P>, Parameters>, int> = 0>
+void visitFields(P& p, V&& visit)
+{
+  visitFields(p.transform, visit);
+  visitFields(p.band, visit);
+  visitFields(p.scan, visit);
+  visitFields(p.noise, visit);
+  visitFields(p.input, visit);
+  visit(p.publish_filtered_cloud, ParamInfo("publish_filtered_cloud", "", "advertise and publish `filtered_cloud`"));
+}
 
 }  // namespace depth_filter_scan_converter

@@ -13,11 +13,13 @@
 
 #include "depth_filter_scan_converter/range_to_scan.hpp"
 #include "depth_filter_scan_converter/converter_glue.hpp"
+#include "laserscan_common/parameter_reader.hpp"
 
 namespace depth_filter_scan_converter
 {
-/// Reads every parameter from the private namespace (defaults from RangeScanParameters) and
-/// validates. Throws laserscan_common::ParameterError naming the parameter that is wrong (type or value).
+/// Reads every field of RangeScanParameters' table from the private namespace (defaults from the
+/// struct), validates, and warns about unknown private parameters. Throws
+/// laserscan_common::ParameterError naming the parameter that is wrong (type or value).
 RangeScanParameters loadRangeScanParameters(const ros::NodeHandle& private_nh);
 
 class RangeScanConverter
@@ -36,7 +38,7 @@ private:
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   ros::NodeHandle nh_, private_nh_;
-  int queue_size_;
+  const RangeScanParameters params_;  // read and validated first
   ros::Subscriber range_sub_;
   ros::Publisher scan_pub_;
   LazySubscription lazy_;

@@ -10,10 +10,13 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cmath>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "laserscan_common/parameter_error.hpp"
+#include "laserscan_common/parameter_table.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -26,10 +29,36 @@ struct RangeScanParameters
   double arc_width = 0.0;                ///< ... unless this is > 0: then the arc spans this (rad)
   double angle_increment = 0.004363323;  ///< largest beam spacing (pi/720, the merger's default)
   int min_consecutive_readings = 1;      ///< in-range readings in a row before one is an obstacle
+  int queue_size = 10;                   ///< subscriber queue (ROS glue only)
 
   /// Throws ParameterError naming the first bad parameter and why.
   void validate() const;
 };
+
+/// The table of RangeScanParameters (laserscan_common/parameter_table.hpp).
+template <class P, class V, std::enable_if_t<std::is_same_v<std::decay_t<P>, RangeScanParameters>, int> = 0>
+void visitFields(P& p, V&& visit)
+{
+  using laserscan_common::ParamInfo;
+  visit(p.arc_width_scale,
+        ParamInfo("arc_width_scale", "", "the arc spans `field_of_view * arc_width_scale`; within (0, 4]")
+          .above(0.0)
+          .atMost(4.0));
+  visit(p.arc_width, ParamInfo("arc_width", "rad",
+                               "when > 0, the arc spans this, whatever the message's `field_of_view`; within [0, 2 pi]")
+                       .atLeast(0.0)
+                       .atMost(2.0 * M_PI + 1e-6));
+  visit(p.angle_increment, ParamInfo("angle_increment", "rad",
+                                     "largest spacing between the arc's beams, > 2 pi / 100000; the merger's default "
+                                     "output resolution, so the arc leaves no gaps in its bins")
+                             .above(2.0 * M_PI / 100000.0)
+                             .shownAs("`0.004363323` (pi/720, 0.25 deg)"));
+  visit(p.min_consecutive_readings,
+        ParamInfo("min_consecutive_readings", "readings",
+                  "in-range readings in a row before one is an obstacle (1: no debounce), >= 1")
+          .atLeast(1));
+  visit(p.queue_size, ParamInfo("queue_size", "readings", "subscriber queue, >= 1").atLeast(1));
+}
 
 /// The fields of a sensor_msgs/Range the conversion uses (stamp in seconds).
 struct RangeReading

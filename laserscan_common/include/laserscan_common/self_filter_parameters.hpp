@@ -10,6 +10,7 @@
 #include <ros/ros.h>
 #include <tf2/buffer_core.h>
 
+#include "laserscan_common/parameter_reader.hpp"
 #include "laserscan_common/self_filter.hpp"
 
 namespace laserscan_common
@@ -28,8 +29,9 @@ struct SelfFilterParams
   void validate() const;
 };
 
-/// Reads `<private_nh>/<key>` (absent: the filter is off). Throws ParameterError.
-SelfFilterParams readSelfFilterParams(const ros::NodeHandle& private_nh, const std::string& key = "self_filter");
+/// Reads `<private_nh>/<key>` (absent: the filter is off) by the toolbox's one strict rule.
+/// Throws ParameterError.
+SelfFilterParams readSelfFilterParams(ParameterReader& reader, const std::string& key = "self_filter");
 
 /// The filter the parameters describe: the description's shapes (read from `robot_description`
 /// in nh's namespace; package:// meshes through roslib), then the listed ones. Throws

@@ -14,6 +14,7 @@
 #include <tf2_ros/buffer.h>
 
 #include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/parameter_reader.hpp"
 #include "laserscan_common/throttle.hpp"
 #include "laserscan_common/transform_reader.hpp"
 #include "multi_laserscan_merger/merger_core.hpp"
@@ -22,9 +23,10 @@
 namespace multi_laserscan_merger
 {
 
-/// Reads every parameter from the private namespace; throws ParameterError naming the
-/// parameter (wrong type, unknown key, failed check).
-MergerParams loadParams(const ros::NodeHandle& private_nh);
+/// Reads every parameter of MergerParams' tables from the private namespace (defaults from the
+/// structs); throws ParameterError naming the parameter (wrong type, unknown source key, failed
+/// check).
+MergerParams loadParams(laserscan_common::ParameterReader& reader);
 
 class MultiLaserScanMergerRos
 {
@@ -110,7 +112,8 @@ private:
   void outputDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   ros::NodeHandle nh_, private_nh_;
-  std::string name_;  ///< for messages
+  std::string name_;                          ///< for messages
+  laserscan_common::ParameterReader reader_;  ///< knows every name read, for the unknown-key warning
   MergerParams params_;
   std::unique_ptr<MergerCore> core_;
   std::mutex mutex_;
