@@ -14,9 +14,8 @@ import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
-sys.path.insert(0, os.path.join(REPO, "scripts"))
-from laserscan_toolbox import config_check as cc  # noqa: E402
-from laserscan_toolbox import parameter_tables as pt  # noqa: E402
+from laserscan_toolbox import config_check as cc
+from laserscan_toolbox import parameter_tables as pt
 
 CFG = os.path.join(REPO, "depth_filter_scan_converter", "cfg", "DepthFilterScanConverter.cfg")
 

@@ -8,14 +8,11 @@ level as in the merger's. Each node runs against a private roscore (rosrun.Maste
 import os
 import signal
 import subprocess
-import sys
 import time
 
 import pytest
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(os.path.dirname(HERE), "scripts"))
-from laserscan_toolbox.ros.rosrun import Master  # noqa: E402
+from laserscan_toolbox.ros.rosrun import Master
 
 SOURCES = [{"name": "front", "topic": "front/scan"}]
 NODES = {  # kind: (package, executable, output topic, parameters the node needs)
