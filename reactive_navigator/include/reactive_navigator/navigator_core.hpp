@@ -1,0 +1,68 @@
+// The navigation core: MRPT's reactive navigator (TP-Space, CPTG_Holo_Blend for an
+// omnidirectional base) run one control step at a time on data handed in by the caller, so that
+// the same code runs under ROS and in tests. ROS-free; times in seconds of the caller's clock
+// (simulated time in simulation), so that a run does not depend on the machine's load.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "reactive_navigator/parameters.hpp"
+
+namespace reactive_navigator
+{
+
+/// A planar pose in the odometry frame (m, rad).
+struct Pose2
+{
+  double x = 0.0;
+  double y = 0.0;
+  double yaw = 0.0;
+};
+
+/// A velocity command in the robot frame (m/s, rad/s), as geometry_msgs/Twist carries it.
+struct Command
+{
+  double vx = 0.0;
+  double vy = 0.0;
+  double wz = 0.0;
+};
+
+enum class NavigationState
+{
+  Idle,        ///< no goal yet
+  Navigating,  ///< driving to the goal
+  Reached,     ///< within goal_tolerance of the goal
+  Blocked,     ///< no progress for blocked_timeout, or the goal itself is inside an obstacle
+};
+const char* stateName(NavigationState state);
+
+/// Obstacle points in the robot frame (m). In 2d mode z is ignored (the caller keeps the height band).
+using ObstaclePoints = std::vector<Eigen::Vector3f>;
+
+class NavigatorCore
+{
+public:
+  /// Throws ParameterError (validate()) for bad parameters.
+  explicit NavigatorCore(const NavigatorParameters& parameters);
+  ~NavigatorCore();
+  NavigatorCore(const NavigatorCore&) = delete;
+  NavigatorCore& operator=(const NavigatorCore&) = delete;
+
+  /// A new goal (odometry frame); replaces any former one.
+  void setGoal(double x, double y);
+  /// One control step at `time` (s, increasing): the robot's pose then and the obstacles seen.
+  /// Returns the command to drive until the next step (zero unless navigating).
+  Command step(double time, const Pose2& pose, const ObstaclePoints& obstacles);
+
+  NavigationState state() const;
+  const NavigatorParameters& parameters() const;
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace reactive_navigator

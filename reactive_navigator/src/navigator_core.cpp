@@ -1,0 +1,311 @@
+#include "reactive_navigator/navigator_core.hpp"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include <mrpt/config/CConfigFileMemory.h>
+#include <mrpt/kinematics/CVehicleVelCmd_Holo.h>
+#include <mrpt/maps/CSimplePointsMap.h>
+#include <mrpt/nav/holonomic/CHolonomicFullEval.h>
+#include <mrpt/math/wrap2pi.h>
+#include <mrpt/nav/reactive/CReactiveNavigationSystem.h>
+#include <mrpt/nav/reactive/CReactiveNavigationSystem3D.h>
+#include <mrpt/nav/reactive/CRobot2NavInterface.h>
+#include <mrpt/system/datetime.h>
+
+namespace reactive_navigator
+{
+
+const char* stateName(NavigationState state)
+{
+  switch (state)
+  {
+    case NavigationState::Idle: return "idle";
+    case NavigationState::Navigating: return "navigating";
+    case NavigationState::Reached: return "reached";
+    case NavigationState::Blocked: return "blocked";
+  }
+  return "unknown";
+}
+
+namespace
+{
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+constexpr double kProgress = 0.1;  // m closer to the goal that counts as progress
+
+double circumradius(const Polygon& polygon)
+{
+  double r = 0.0;
+  for (const auto& v : polygon)
+    r = std::max(r, v.norm());
+  return r;
+}
+
+std::string joined(const Polygon& polygon, int axis)
+{
+  std::ostringstream out;
+  for (const auto& v : polygon)
+    out << v[axis] << ' ';
+  return out.str();
+}
+
+// MRPT reads its navigators' settings from an INI text; ours is generated from the parameters so
+// that a user sets ROS parameters only. Sections and keys are MRPT 2.5's
+// (/usr/share/mrpt/config_files/navigation-ptgs/reactive2d_config.ini documents them).
+std::string mrptConfig(const NavigatorParameters& p)
+{
+  std::ostringstream ini;
+  ini.precision(17);
+  ini << "[CAbstractNavigator]\n"
+      << "dist_to_target_for_sending_event = 0\n"
+      // "No progress" is decided by NavigatorCore itself (one rule, on the caller's clock).
+      << "alarm_seems_not_approaching_target_timeout = 1e9\n"
+      << "dist_check_target_is_blocked = " << std::max(p.goal_tolerance, 0.5) << "\n"
+      << "hysteresis_check_target_is_blocked = 5\n"
+      << "enable_time_profiler = false\n"
+      << "[CAbstractPTGBasedReactive]\n"
+      << "robotMax_V_mps = " << p.max_linear_speed << "\n"
+      << "robotMax_W_degps = " << p.max_angular_speed * kRadToDeg << "\n"
+      << "holonomic_method = CHolonomicFullEval\n"
+      << "motion_decider_method = CMultiObjMotionOpt_Scalarization\n"
+      << "ref_distance = " << p.lookahead << "\n"
+      << "speedfilter_tau = 0\n"
+      << "secure_distance_start = 0.05\n"
+      << "secure_distance_end = 0.20\n"
+      // Poses and obstacles are those of the step's own time: nothing to inter/extrapolate,
+      // and MRPT's delay model would measure wall-clock delays (a run would depend on the load).
+      << "use_delays_model = false\n"
+      << "max_distance_predicted_actual_path = 0.15\n"
+      << "min_normalized_free_space_for_ptg_continuation = 0.2\n"
+      // The filter compares clouds across keyframes by wall-clock age: off for repeatable runs.
+      << "enable_obstacle_filtering = false\n"
+      << "evaluate_clearance = false\n"
+      // How candidate motions are scored (MRPT's exprtk formulas over its documented variables):
+      // getting near the goal weighs most, then a free path, then the goal's path being free
+      // right up to it, then keeping the former choice (against dithering).
+      << "[CMultiObjectiveMotionOptimizerBase]\n"
+      << "score1_name = nearness\n"
+      << "score1_formula = 1/(1+dist_eucl_min)\n"
+      << "score2_name = free_distance\n"
+      << "score2_formula = min(collision_free_distance, 1.0)\n"
+      << "score3_name = goal_path_free\n"
+      << "score3_formula = if(collision_free_distance>target_d_norm, 1.0, 0.0)\n"
+      << "score4_name = keep_choice\n"
+      << "score4_formula = hysteresis\n"
+      << "scores_to_normalize =\n"
+      << "[CMultiObjMotionOpt_Scalarization]\n"
+      << "scalar_score_formula = 4.0*nearness + 0.5*free_distance + 1.0*goal_path_free + "
+         "0.1*keep_choice\n";
+  const std::string section = p.volumetric() ? "CReactiveNavigationSystem3D" : "CReactiveNavigationSystem";
+  // MRPT numbers the 2D navigator's PTGs from 0 and the 3D navigator's from 1.
+  const std::string ptg = p.volumetric() ? "PTG1_" : "PTG0_";
+  ini << "[" << section << "]\n"
+      << "PTG_COUNT = 1\n"
+      << ptg << "Type = CPTG_Holo_Blend\n"
+      << ptg << "refDistance = " << p.lookahead << "\n"
+      << ptg << "num_paths = " << p.path_count << "\n"
+      << ptg << "v_max_mps = " << p.max_linear_speed << "\n"
+      << ptg << "w_max_dps = " << p.max_angular_speed * kRadToDeg << "\n"
+      << ptg << "T_ramp_max = " << p.max_linear_speed / p.linear_acceleration << "\n"
+      << ptg << "score_priority = 1.0\n";
+  if (p.volumetric())
+  {
+    ini << "HEIGHT_LEVELS = " << p.shape_3d.size() << "\n";
+    for (std::size_t i = 0; i < p.shape_3d.size(); ++i)
+      ini << "LEVEL" << i + 1 << "_HEIGHT = " << p.shape_3d[i].height << "\n"
+          << "LEVEL" << i + 1 << "_VECTORX = " << joined(p.shape_3d[i].polygon, 0) << "\n"
+          << "LEVEL" << i + 1 << "_VECTORY = " << joined(p.shape_3d[i].polygon, 1) << "\n";
+  }
+  else
+  {
+    // The caller keeps the height band: MRPT's own band is opened wide.
+    ini << "min_obstacles_height = -1000\nmax_obstacles_height = 1000\n"
+        << "RobotModel_shape2D_xs = " << joined(p.footprint, 0) << "\n"
+        << "RobotModel_shape2D_ys = " << joined(p.footprint, 1) << "\n"
+        // CPTG_Holo_Blend models the robot as a circle: the footprint's circumscribed one.
+        << "RobotModel_circular_shape_radius = " << circumradius(p.footprint) << "\n";
+  }
+  return ini.str();
+}
+
+}  // namespace
+
+// The robot side of MRPT's navigator: answers its questions with the data of the current step
+// and keeps the command it sends.
+struct NavigatorCore::Impl : public mrpt::nav::CRobot2NavInterface
+{
+  NavigatorParameters parameters;
+  std::unique_ptr<mrpt::nav::CAbstractPTGBasedReactive> navigator;
+
+  double time = 0.0;             // the current step's time
+  double timer_start = 0.0;      // for getNavigationTime()
+  Pose2 pose;
+  Pose2 previous_pose;
+  double previous_time = std::nan("");
+  mrpt::math::TTwist2D velocity{0.0, 0.0, 0.0};  // odometry frame, from successive poses
+  const ObstaclePoints* obstacles = nullptr;
+
+  // The held command: speed along a direction fixed in the odometry frame (CPTG_Holo_Blend's
+  // paths keep their heading while the robot turns) and the turn rate.
+  double speed = 0.0;
+  double direction = 0.0;
+  double turn_rate = 0.0;
+
+  NavigationState state = NavigationState::Idle;
+  double goal_x = 0.0;
+  double goal_y = 0.0;
+  double best_distance = 0.0;   // closest to the goal so far
+  double progress_time = 0.0;   // when it last got kProgress closer
+
+  explicit Impl(const NavigatorParameters& p) : parameters(p)
+  {
+    setMinLoggingLevel(mrpt::system::LVL_ERROR);
+    if (p.volumetric())
+      navigator = std::make_unique<mrpt::nav::CReactiveNavigationSystem3D>(*this, false, false);
+    else
+      navigator = std::make_unique<mrpt::nav::CReactiveNavigationSystem>(*this, false, false);
+    navigator->setMinLoggingLevel(mrpt::system::LVL_ERROR);
+    mrpt::config::CConfigFileMemory config(mrptConfig(p));
+    // The holonomic method's own tuning: MRPT's defaults. (What is written into a
+    // CConfigFileMemory is not read back from it: the text goes through a fresh one.)
+    mrpt::nav::CHolonomicFullEval::TOptions().saveToConfigFile(config, "CHolonomicFullEval");
+    std::string text;
+    config.getContent(text);
+    navigator->loadConfigFile(mrpt::config::CConfigFileMemory(text));
+    navigator->initialize();
+    // Its delay statistics would be printed at every destruction (the object is not const).
+    const_cast<mrpt::system::CTimeLogger&>(navigator->getDelaysTimeLogger()).enable(false);
+  }
+
+  bool getCurrentPoseAndSpeeds(mrpt::math::TPose2D& cur_pose, mrpt::math::TTwist2D& cur_velocity,
+                               mrpt::system::TTimeStamp& timestamp, mrpt::math::TPose2D& odometry,
+                               std::string& frame_id) override
+  {
+    cur_pose = mrpt::math::TPose2D(pose.x, pose.y, pose.yaw);
+    odometry = cur_pose;
+    cur_velocity = velocity;
+    // Pose and obstacles are of one instant: the same stamp, so that MRPT sees no delay.
+    timestamp = mrpt::Clock::now();
+    frame_id = "map";
+    return true;
+  }
+
+  bool changeSpeeds(const mrpt::kinematics::CVehicleVelCmd& command) override
+  {
+    const auto* holo = dynamic_cast<const mrpt::kinematics::CVehicleVelCmd_Holo*>(&command);
+    if (holo == nullptr)
+      return false;
+    speed = holo->vel;
+    direction = pose.yaw + holo->dir_local;
+    turn_rate = holo->rot_speed;
+    return true;
+  }
+
+  bool stop(bool /*is_emergency_stop*/) override
+  {
+    speed = 0.0;
+    turn_rate = 0.0;
+    return true;
+  }
+
+  mrpt::kinematics::CVehicleVelCmd::Ptr getEmergencyStopCmd() override { return getStopCmd(); }
+  mrpt::kinematics::CVehicleVelCmd::Ptr getStopCmd() override
+  {
+    return std::make_shared<mrpt::kinematics::CVehicleVelCmd_Holo>(0.0, 0.0, 0.1, 0.0);
+  }
+
+  bool senseObstacles(mrpt::maps::CSimplePointsMap& map, mrpt::system::TTimeStamp& timestamp) override
+  {
+    map.clear();
+    if (obstacles != nullptr)
+    {
+      map.reserve(obstacles->size());
+      const bool volumetric = parameters.volumetric();
+      for (const auto& p : *obstacles)
+        map.insertPointFast(p.x(), p.y(), volumetric ? p.z() : 0.0f);
+    }
+    timestamp = mrpt::Clock::now();
+    return true;
+  }
+
+  void sendNavigationEndEvent() override { state = NavigationState::Reached; }
+  void sendWaySeemsBlockedEvent() override { state = NavigationState::Blocked; }
+  void sendCannotGetCloserToBlockedTargetEvent() override { state = NavigationState::Blocked; }
+  void sendNavigationEndDueToErrorEvent() override { state = NavigationState::Blocked; }
+
+  // MRPT's timers (the "not approaching the goal" alarm) run on the caller's clock.
+  double getNavigationTime() override { return time - timer_start; }
+  void resetNavigationTimer() override { timer_start = time; }
+};
+
+NavigatorCore::NavigatorCore(const NavigatorParameters& parameters)
+{
+  parameters.validate();
+  impl_ = std::make_unique<Impl>(parameters);
+}
+
+NavigatorCore::~NavigatorCore() = default;
+
+void NavigatorCore::setGoal(double x, double y)
+{
+  if (impl_->navigator->getCurrentState() == mrpt::nav::CAbstractNavigator::NAV_ERROR)
+    impl_->navigator->resetNavError();
+  mrpt::nav::CAbstractPTGBasedReactive::TNavigationParamsPTG request;
+  request.target.target_coords = mrpt::math::TPose2D(x, y, 0.0);
+  request.target.target_frame_id = "map";
+  request.target.targetAllowedDistance = static_cast<float>(impl_->parameters.goal_tolerance);
+  request.target.targetIsRelative = false;
+  impl_->navigator->navigate(&request);
+  impl_->state = NavigationState::Navigating;
+  impl_->goal_x = x;
+  impl_->goal_y = y;
+  impl_->best_distance = std::numeric_limits<double>::infinity();
+}
+
+Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints& obstacles)
+{
+  Impl& d = *impl_;
+  const double dt = time - d.previous_time;
+  if (std::isfinite(dt) && dt > 0.0)
+    d.velocity = mrpt::math::TTwist2D((pose.x - d.previous_pose.x) / dt, (pose.y - d.previous_pose.y) / dt,
+                                      mrpt::math::wrapToPi(pose.yaw - d.previous_pose.yaw) / dt);
+  d.previous_pose = pose;
+  d.previous_time = time;
+  d.time = time;
+  d.pose = pose;
+  d.obstacles = &obstacles;
+
+  if (d.state == NavigationState::Navigating)
+  {
+    // Blocked: not kProgress closer to the goal for blocked_timeout.
+    const double distance = std::hypot(d.goal_x - pose.x, d.goal_y - pose.y);
+    if (distance < d.best_distance - kProgress || !std::isfinite(d.best_distance))
+    {
+      d.best_distance = distance;
+      d.progress_time = time;
+    }
+    else if (time - d.progress_time > d.parameters.blocked_timeout)
+      d.state = NavigationState::Blocked;
+  }
+  if (d.state == NavigationState::Navigating)
+  {
+    d.navigator->navigationStep();
+    if (d.navigator->getCurrentState() == mrpt::nav::CAbstractNavigator::NAV_ERROR)
+      d.state = NavigationState::Blocked;
+  }
+  d.obstacles = nullptr;
+  if (d.state != NavigationState::Navigating)
+  {
+    d.speed = 0.0;
+    d.turn_rate = 0.0;
+  }
+  const double heading = d.direction - pose.yaw;  // the held direction, seen from the robot now
+  return Command{d.speed * std::cos(heading), d.speed * std::sin(heading), d.turn_rate};
+}
+
+NavigationState NavigatorCore::state() const { return impl_->state; }
+const NavigatorParameters& NavigatorCore::parameters() const { return impl_->parameters; }
+
+}  // namespace reactive_navigator

@@ -1,0 +1,314 @@
+// The navigation core against analytic cases: a robot integrated from the commands (omnidirectional,
+// exact kinematics) among obstacles given as world points, seen from the robot at every step.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "reactive_navigator/navigator_core.hpp"
+#include "reactive_navigator/obstacle_points.hpp"
+
+namespace reactive_navigator
+{
+namespace
+{
+
+constexpr double kStep = 0.1;  // s, 10 Hz
+
+struct DriveResult
+{
+  NavigationState state = NavigationState::Idle;
+  std::vector<Pose2> path;
+};
+
+// Drives the robot from (0, 0, 0) to the goal among the world points for at most `duration` s.
+DriveResult drive(const NavigatorParameters& p, const ObstaclePoints& world, double goal_x, double goal_y,
+          double duration = 30.0)
+{
+  NavigatorCore core(p);
+  core.setGoal(goal_x, goal_y);
+  DriveResult run;
+  Pose2 pose;
+  ObstaclePoints seen;
+  for (double t = 0.0; t < duration; t += kStep)
+  {
+    seen.clear();
+    const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
+    for (const auto& w : world)
+    {
+      const double dx = w.x() - pose.x, dy = w.y() - pose.y;
+      seen.emplace_back(static_cast<float>(c * dx + s * dy), static_cast<float>(-s * dx + c * dy), w.z());
+    }
+    const Command command = core.step(t, pose, seen);
+    run.path.push_back(pose);
+    run.state = core.state();
+    if (run.state != NavigationState::Navigating)
+      break;
+    pose.x += (c * command.vx - s * command.vy) * kStep;
+    pose.y += (s * command.vx + c * command.vy) * kStep;
+    pose.yaw += command.wz * kStep;
+  }
+  return run;
+}
+
+// Points every 5 cm along x = x0 for y in [y0, y1], at height z.
+void addWallAlongY(ObstaclePoints& points, double x0, double y0, double y1, double z = 0.2)
+{
+  for (double y = y0; y <= y1 + 1e-9; y += 0.05)
+    points.emplace_back(static_cast<float>(x0), static_cast<float>(y), static_cast<float>(z));
+}
+
+double largestX(const DriveResult& run)
+{
+  double x = -1e9;
+  for (const auto& pose : run.path)
+    x = std::max(x, pose.x);
+  return x;
+}
+
+TEST(NavigatorCore, ReachesAGoalInFreeSpace)
+{
+  for (const char* mode : {"2d", "3d"})
+  {
+    NavigatorParameters p;
+    p.mode = mode;
+    const DriveResult run = drive(p, {}, 3.0, 1.0);
+    EXPECT_EQ(run.state, NavigationState::Reached) << mode;
+    EXPECT_LT(std::hypot(run.path.back().x - 3.0, run.path.back().y - 1.0), p.goal_tolerance + 0.05) << mode;
+  }
+}
+
+TEST(NavigatorCore, AWallAheadStopsIt)
+{
+  NavigatorParameters p;
+  p.blocked_timeout = 5.0;
+  ObstaclePoints wall;
+  addWallAlongY(wall, 1.5, -15.0, 15.0);
+  const DriveResult run = drive(p, wall, 4.0, 0.0, 40.0);
+  EXPECT_EQ(run.state, NavigationState::Blocked);
+  // Its (circular) shape never touched the wall.
+  EXPECT_LT(largestX(run) + 0.441, 1.5);
+}
+
+TEST(NavigatorCore, TakesAGapItFitsThrough)
+{
+  NavigatorParameters p;
+  ObstaclePoints wall;
+  // A wall at x = 2 with a 1.3 m gap centred on y = 0.5 (the robot's circle is 0.88 m wide).
+  addWallAlongY(wall, 2.0, -6.0, -0.15);
+  addWallAlongY(wall, 2.0, 1.15, 6.0);
+  const DriveResult run = drive(p, wall, 4.0, 0.0);
+  EXPECT_EQ(run.state, NavigationState::Reached);
+  for (const auto& pose : run.path)
+    if (std::abs(pose.x - 2.0) < 0.05)
+      EXPECT_LT(std::abs(pose.y - 0.5), 0.65) << "crossed the wall outside the gap at y = " << pose.y;
+}
+
+// A table across the way, its top at the arm's height (0.70 - 0.75 m), legs far to the sides.
+ObstaclePoints tableAcrossTheWay(double top_z)
+{
+  ObstaclePoints points;
+  for (double x = 1.5; x <= 2.5 + 1e-9; x += 0.05)
+    for (double y = -6.0; y <= 6.0 + 1e-9; y += 0.05)
+      points.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(top_z));
+  return points;
+}
+
+// What a level lidar at 0.2 m sees of it: nothing but the legs, beyond the way.
+ObstaclePoints tableLegsOnly()
+{
+  ObstaclePoints points;
+  for (double y : {-6.0, 6.0})
+    for (double x : {1.5, 2.5})
+      points.emplace_back(static_cast<float>(x), static_cast<float>(y), 0.2f);
+  return points;
+}
+
+TEST(NavigatorCore, ATableTopAtTheArmsHeightBlocksThe3dNavigator)
+{
+  NavigatorParameters p;
+  p.mode = "3d";
+  p.blocked_timeout = 5.0;
+  const DriveResult run = drive(p, tableAcrossTheWay(0.72), 4.0, 0.0, 40.0);
+  EXPECT_NE(run.state, NavigationState::Reached);
+  EXPECT_LT(largestX(run) + 0.441, 1.5);
+}
+
+TEST(NavigatorCore, TheSameTableTopAboveTheRobotLetsThe3dNavigatorPassUnder)
+{
+  NavigatorParameters p;
+  p.mode = "3d";
+  const DriveResult run = drive(p, tableAcrossTheWay(0.95), 4.0, 0.0);
+  EXPECT_EQ(run.state, NavigationState::Reached);
+}
+
+TEST(NavigatorCore, ATableTopBlocksThe2dNavigatorFedAScanThatHoldsIt)
+{
+  NavigatorParameters p;
+  p.blocked_timeout = 5.0;
+  // The unified scan holds the top's edge (its points projected to the floor by the 2D navigator).
+  ObstaclePoints scan;
+  addWallAlongY(scan, 1.5, -6.0, 6.0, 0.0);
+  const DriveResult run = drive(p, scan, 4.0, 0.0, 40.0);
+  EXPECT_NE(run.state, NavigationState::Reached);
+  EXPECT_LT(largestX(run) + 0.441, 1.5);
+}
+
+TEST(NavigatorCore, The2dNavigatorFedOnlyTheLegsDrivesUnderTheTable)
+{
+  // What the lidar-only mode misses: the way looks free.
+  NavigatorParameters p;
+  const DriveResult run = drive(p, tableLegsOnly(), 4.0, 0.0);
+  EXPECT_EQ(run.state, NavigationState::Reached);
+}
+
+TEST(NavigatorCore, IdleWithoutAGoal)
+{
+  NavigatorCore core(NavigatorParameters{});
+  const Command c = core.step(0.0, Pose2{}, {});
+  EXPECT_EQ(core.state(), NavigationState::Idle);
+  EXPECT_EQ(c.vx, 0.0);
+  EXPECT_EQ(c.vy, 0.0);
+  EXPECT_EQ(c.wz, 0.0);
+}
+
+TEST(NavigatorCore, SameInputsGiveTheSameRun)
+{
+  NavigatorParameters p;
+  ObstaclePoints wall;
+  addWallAlongY(wall, 2.0, -6.0, -0.15);
+  addWallAlongY(wall, 2.0, 1.15, 6.0);
+  const DriveResult a = drive(p, wall, 4.0, 0.0);
+  const DriveResult b = drive(p, wall, 4.0, 0.0);
+  ASSERT_EQ(a.path.size(), b.path.size());
+  for (std::size_t i = 0; i < a.path.size(); ++i)
+  {
+    EXPECT_EQ(a.path[i].x, b.path[i].x);
+    EXPECT_EQ(a.path[i].y, b.path[i].y);
+  }
+}
+
+TEST(Parameters, EachBadValueNamesItsParameter)
+{
+  auto expectError = [](const NavigatorParameters& p, const std::string& name) {
+    try
+    {
+      p.validate();
+      ADD_FAILURE() << "no error for " << name;
+    }
+    catch (const ParameterError& e)
+    {
+      EXPECT_EQ(e.parameter(), name);
+    }
+  };
+  NavigatorParameters p;
+  p.mode = "2.5d";
+  expectError(p, "mode");
+  p = NavigatorParameters{};
+  p.footprint = {{0, 0}, {1, 0}};
+  expectError(p, "footprint");
+  p = NavigatorParameters{};
+  p.footprint = {{0, 0}, {1, 0}, {2, 0}};
+  expectError(p, "footprint");
+  p = NavigatorParameters{};
+  p.shape_3d.clear();
+  expectError(p, "shape_3d");
+  p = NavigatorParameters{};
+  p.shape_3d[1].height = 0.0;
+  expectError(p, "shape_3d[1].height");
+  p = NavigatorParameters{};
+  p.shape_3d[0].polygon.resize(2);
+  expectError(p, "shape_3d[0].polygon");
+  p = NavigatorParameters{};
+  p.max_linear_speed = std::nan("");
+  expectError(p, "max_linear_speed");
+  p = NavigatorParameters{};
+  p.max_angular_speed = -1.0;
+  expectError(p, "max_angular_speed");
+  p = NavigatorParameters{};
+  p.linear_acceleration = 0.0;
+  expectError(p, "linear_acceleration");
+  p = NavigatorParameters{};
+  p.goal_tolerance = 0.0;
+  expectError(p, "goal_tolerance");
+  p = NavigatorParameters{};
+  p.lookahead = INFINITY;
+  expectError(p, "lookahead");
+  p = NavigatorParameters{};
+  p.blocked_timeout = 0.0;
+  expectError(p, "blocked_timeout");
+  p = NavigatorParameters{};
+  p.path_count = 2;
+  expectError(p, "path_count");
+
+  auto expectNodeError = [](const NodeParameters& n, const std::string& name) {
+    try
+    {
+      n.validate();
+      ADD_FAILURE() << "no error for " << name;
+    }
+    catch (const ParameterError& e)
+    {
+      EXPECT_EQ(e.parameter(), name);
+    }
+  };
+  NodeParameters n;
+  expectNodeError(n, "scan_topics");
+  n.scan_topics = {"a", "a"};
+  expectNodeError(n, "scan_topics");
+  n.scan_topics = {"a"};
+  n.cloud_topics = {""};
+  expectNodeError(n, "cloud_topics");
+  n.cloud_topics = {};
+  n.odom_frame = "";
+  expectNodeError(n, "odom_frame");
+  n.odom_frame = "odom";
+  n.robot_frame = "odom";
+  expectNodeError(n, "robot_frame");
+  n.robot_frame = "base_link";
+  n.height_band_min = 1.0;
+  expectNodeError(n, "height_band");
+  n.height_band_min = 0.05;
+  n.control_rate = 0.0;
+  expectNodeError(n, "control_rate");
+  n.control_rate = 10.0;
+  n.lockstep_timeout = -1.0;
+  expectNodeError(n, "lockstep_timeout");
+  n.lockstep_timeout = 5.0;
+  EXPECT_NO_THROW(n.validate());
+}
+
+TEST(ObstaclePoints, ScanBeamsFollowRep117)
+{
+  const float inf = std::numeric_limits<float>::infinity();
+  const float ranges[] = {1.0f, inf, -inf, std::nanf(""), 0.05f, 50.0f, 2.0f};
+  ScanView scan{ranges, 7, 0.0, M_PI / 2.0, 0.1, 10.0};
+  Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
+  mount.translation() = Eigen::Vector3d(0.4, 0.0, 0.2);
+  ObstaclePoints out;
+  ASSERT_EQ(appendScanPoints(scan, mount, out), 3u);
+  EXPECT_NEAR(out[0].x(), 1.4f, 1e-6);  // beam 0 at 0 rad, 1 m
+  EXPECT_NEAR(out[0].z(), 0.2f, 1e-6);
+  EXPECT_NEAR(out[1].x(), 0.3f, 1e-6);  // beam 2 at pi rad: -Inf -> range_min
+  EXPECT_NEAR(out[2].x(), 0.4f - 2.0f, 1e-5);  // beam 6 at 3 pi rad, 2 m
+}
+
+TEST(ObstaclePoints, CloudPointsAreTransformedAndKeptInTheBand)
+{
+  // A camera tilted 90 degrees down (optical z along -z of the robot) 1 m above base_link.
+  struct P
+  {
+    float x, y, z, pad;
+  };
+  const P points[] = {{0, 0, 0.5f, 0}, {0, 0, 0.99f, 0}, {0, 0, NAN, 0}, {0, 0, 0.2f, 0}};
+  CloudView cloud{reinterpret_cast<const std::uint8_t*>(points), 4, sizeof(P), 0, 4, 8};
+  Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
+  mount.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
+  mount.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  ObstaclePoints out;
+  ASSERT_EQ(appendCloudPoints(cloud, mount, 0.05, 0.9, out), 2u);
+  EXPECT_NEAR(out[0].z(), 0.5f, 1e-6);  // 0.5 m below the camera
+  EXPECT_NEAR(out[1].z(), 0.8f, 1e-6);  // 0.2 m below; the 0.99 m one is at 0.01 m: the floor
+}
+
+}  // namespace
+}  // namespace reactive_navigator
