@@ -177,14 +177,14 @@ ReactiveNavigatorRos::ReactiveNavigatorRos(ros::NodeHandle nh, ros::NodeHandle p
 
   for (const auto& topic : parameters_.scan_topics)
   {
-    sources_.push_back(Source{topic, false, {}, {}, -1.0});
+    sources_.push_back(Source{topic, false, {}, {}, ros::Time()});
     const std::size_t index = sources_.size() - 1;
     obstacle_subs_.push_back(nh_.subscribe<sensor_msgs::LaserScan>(
         topic, 10, [this, index](const sensor_msgs::LaserScan::ConstPtr& m) { scanArrived(index, m); }));
   }
   for (const auto& topic : parameters_.cloud_topics)
   {
-    sources_.push_back(Source{topic, true, {}, {}, -1.0});
+    sources_.push_back(Source{topic, true, {}, {}, ros::Time()});
     const std::size_t index = sources_.size() - 1;
     obstacle_subs_.push_back(nh_.subscribe<sensor_msgs::PointCloud2>(
         topic, 10, [this, index](const sensor_msgs::PointCloud2::ConstPtr& m) { cloudArrived(index, m); }));
@@ -265,7 +265,7 @@ void ReactiveNavigatorRos::scanArrived(std::size_t index, const sensor_msgs::Las
     source.scans.push_back(scan);
     if (source.scans.size() > kKeptMessages)
       source.scans.pop_front();
-    source.newest_stamp = std::max(source.newest_stamp, scan->header.stamp.toSec());
+    source.newest_stamp = std::max(source.newest_stamp, scan->header.stamp);
   }
   if (parameters_.lockstep)
     tryLockstepStep();
@@ -292,7 +292,7 @@ void ReactiveNavigatorRos::cloudArrived(std::size_t index, const sensor_msgs::Po
     source.clouds.push_back(cloud);
     if (source.clouds.size() > kKeptMessages)
       source.clouds.pop_front();
-    source.newest_stamp = std::max(source.newest_stamp, cloud->header.stamp.toSec());
+    source.newest_stamp = std::max(source.newest_stamp, cloud->header.stamp);
   }
   if (parameters_.lockstep)
     tryLockstepStep();
@@ -301,22 +301,32 @@ void ReactiveNavigatorRos::cloudArrived(std::size_t index, const sensor_msgs::Po
 void ReactiveNavigatorRos::timerStep(const ros::TimerEvent& event)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  runStep(event.current_real.toSec(), true);  // ROS time: simulated time in simulation
+  runStep(event.current_real, true);  // ROS time: simulated time in simulation
+}
+
+ros::Time ReactiveNavigatorRos::onGrid(const ros::Time& time, long& index) const
+{
+  // The grid index of the step at or before `time`; the step's time is `time` itself when it is
+  // on the grid (bit for bit the stamp the data carry: 2.4 s in Python is 2.399999999 s), else
+  // the grid time.
+  index = static_cast<long>(std::floor(time.toSec() * parameters_.control_rate + kStampEpsilon));
+  const double grid = static_cast<double>(index) / parameters_.control_rate;
+  return std::abs(time.toSec() - grid) <= kStampEpsilon ? time : ros::Time(grid);
 }
 
 void ReactiveNavigatorRos::tryLockstepStep()
 {
   std::lock_guard<std::mutex> lock(mutex_);
   // The step's time: the newest grid time every source has data for (stamps up to it).
-  double complete = std::numeric_limits<double>::infinity();
+  ros::Time complete = sources_.front().newest_stamp;
   for (const auto& s : sources_)
     complete = std::min(complete, s.newest_stamp);
-  if (complete <= 0.0)
+  if (complete.isZero())
     return;
-  const long index = static_cast<long>(std::floor(complete * parameters_.control_rate + kStampEpsilon));
+  long index = 0;
+  const ros::Time time = onGrid(complete, index);
   if (index < next_step_)
     return;
-  const double time = static_cast<double>(index) / parameters_.control_rate;
   Pose2 pose;
   if (!poseAt(time, false, pose))
   {
@@ -335,9 +345,10 @@ void ReactiveNavigatorRos::tryLockstepStep()
 void ReactiveNavigatorRos::lockstepWatchdog(const ros::WallTimerEvent&)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  const double now = ros::Time::now().toSec();
-  const long index = static_cast<long>(std::floor(now * parameters_.control_rate + kStampEpsilon));
-  if (now <= 0.0 || index < next_step_)
+  const ros::Time now = ros::Time::now();
+  long index = 0;
+  const ros::Time time = onGrid(now, index);
+  if (now.isZero() || index < next_step_)
     return;
   if (waiting_since_.isZero())
   {
@@ -346,12 +357,11 @@ void ReactiveNavigatorRos::lockstepWatchdog(const ros::WallTimerEvent&)
   }
   if ((ros::WallTime::now() - waiting_since_).toSec() < parameters_.lockstep_timeout)
     return;
-  const double time = static_cast<double>(index) / parameters_.control_rate;
   std::string late;
   for (const auto& s : sources_)
-    if (s.newest_stamp + kStampEpsilon < time)
+    if (s.newest_stamp.toSec() + kStampEpsilon < time.toSec())
       late += " '" + s.topic + "'";
-  warn("lockstep", "lockstep: step at " + std::to_string(time) + " s ran after waiting " +
+  warn("lockstep", "lockstep: step at " + std::to_string(time.toSec()) + " s ran after waiting " +
                        std::to_string(parameters_.lockstep_timeout) + " s for" +
                        (late.empty() ? std::string(" the robot's tf") : late));
   runStep(time, true);
@@ -359,12 +369,12 @@ void ReactiveNavigatorRos::lockstepWatchdog(const ros::WallTimerEvent&)
   waiting_since_ = ros::WallTime();
 }
 
-bool ReactiveNavigatorRos::poseAt(double time, bool latest, Pose2& pose)
+bool ReactiveNavigatorRos::poseAt(const ros::Time& time, bool latest, Pose2& pose)
 {
   try
   {
     const auto t = tf_buffer_.lookupTransform(parameters_.odom_frame, parameters_.robot_frame,
-                                              latest ? ros::Time(0) : ros::Time(time));
+                                              latest ? ros::Time(0) : time);
     const auto& q = t.transform.rotation;
     pose.x = t.transform.translation.x;
     pose.y = t.transform.translation.y;
@@ -377,16 +387,16 @@ bool ReactiveNavigatorRos::poseAt(double time, bool latest, Pose2& pose)
   }
 }
 
-void ReactiveNavigatorRos::collectObstacles(double time, bool up_to_time)
+void ReactiveNavigatorRos::collectObstacles(const ros::Time& time, bool up_to_time)
 {
   points_.clear();
-  const ros::Time target_time = ros::Time(time);
+  const ros::Time target_time = time;
   for (auto& s : sources_)
   {
     // The newest message stamped up to the step's time (or the newest of all).
     auto pick = [&](const auto& queue) -> decltype(queue.back().get()) {
       for (auto it = queue.rbegin(); it != queue.rend(); ++it)
-        if (!up_to_time || (*it)->header.stamp.toSec() <= time + kStampEpsilon)
+        if (!up_to_time || (*it)->header.stamp.toSec() <= time.toSec() + kStampEpsilon)
           return it->get();
       return nullptr;
     };
@@ -436,7 +446,7 @@ void ReactiveNavigatorRos::collectObstacles(double time, bool up_to_time)
   }
 }
 
-void ReactiveNavigatorRos::runStep(double time, bool latest_pose)
+void ReactiveNavigatorRos::runStep(const ros::Time& time, bool latest_pose)
 {
   const double cpu_start = cpuSeconds();
   Command command;
@@ -444,15 +454,15 @@ void ReactiveNavigatorRos::runStep(double time, bool latest_pose)
   if (poseAt(time, latest_pose, pose))
   {
     collectObstacles(time, !latest_pose);
-    command = core_->step(time, pose, points_);
+    command = core_->step(time.toSec(), pose, points_);
   }
   else
     warn("pose", "no pose: no transform '" + parameters_.odom_frame + "' -> '" + parameters_.robot_frame +
-                     "' at " + std::to_string(time) + " s; the robot is stopped");
+                     "' at " + std::to_string(time.toSec()) + " s; the robot is stopped");
   const double cpu = cpuSeconds() - cpu_start;
 
   geometry_msgs::TwistStamped step;
-  step.header.stamp = ros::Time(time);
+  step.header.stamp = time;
   step.header.frame_id = parameters_.robot_frame;
   step.twist.linear.x = command.vx;
   step.twist.linear.y = command.vy;

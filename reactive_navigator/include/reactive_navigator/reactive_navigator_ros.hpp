@@ -41,7 +41,7 @@ private:
     bool is_cloud = false;
     std::deque<sensor_msgs::LaserScan::ConstPtr> scans;
     std::deque<sensor_msgs::PointCloud2::ConstPtr> clouds;
-    double newest_stamp = -1.0;
+    ros::Time newest_stamp;
   };
 
   void goalArrived(const geometry_msgs::PoseStamped::ConstPtr& goal);
@@ -50,9 +50,10 @@ private:
   void timerStep(const ros::TimerEvent& event);
   void lockstepWatchdog(const ros::WallTimerEvent& event);
   void tryLockstepStep();
-  bool poseAt(double time, bool latest, Pose2& pose);
-  void collectObstacles(double time, bool up_to_time);
-  void runStep(double time, bool latest_pose);
+  bool poseAt(const ros::Time& time, bool latest, Pose2& pose);
+  void collectObstacles(const ros::Time& time, bool up_to_time);
+  void runStep(const ros::Time& time, bool latest_pose);
+  ros::Time onGrid(const ros::Time& time, long& index) const;
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   void warn(const std::string& kind, const std::string& text);
 
