@@ -1,5 +1,6 @@
 #include "reactive_navigator/navigator_core.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -130,6 +131,39 @@ std::string mrptConfig(const NavigatorParameters& p)
   return ini.str();
 }
 
+bool insideGrown(const Polygon& polygon, double x, double y, double padding)
+{
+  bool inside = false;  // even-odd rule
+  double nearest = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++)
+  {
+    const Eigen::Vector2d& a = polygon[i];
+    const Eigen::Vector2d& b = polygon[j];
+    if ((a.y() > y) != (b.y() > y) && x < (b.x() - a.x()) * (y - a.y()) / (b.y() - a.y()) + a.x())
+      inside = !inside;
+    const Eigen::Vector2d ab = b - a, ap = Eigen::Vector2d(x, y) - a;
+    const double u = std::clamp(ap.dot(ab) / std::max(ab.squaredNorm(), 1e-12), 0.0, 1.0);
+    nearest = std::min(nearest, (ap - u * ab).norm());
+  }
+  return inside || nearest <= padding;
+}
+
+// The shape at height z: the footprint in 2d, the level holding z in 3d (the lowest below the
+// floor; none above the top, where nothing is the robot).
+const Polygon* shapeAt(const NavigatorParameters& p, float z)
+{
+  if (!p.volumetric())
+    return &p.footprint;
+  double top = 0.0;
+  for (const auto& level : p.shape_3d)
+  {
+    top += level.height;
+    if (z <= top)
+      return &level.polygon;
+  }
+  return nullptr;
+}
+
 }  // namespace
 
 // The robot side of MRPT's navigator: answers its questions with the data of the current step
@@ -145,7 +179,8 @@ struct NavigatorCore::Impl : public mrpt::nav::CRobot2NavInterface
   Pose2 previous_pose;
   double previous_time = std::nan("");
   mrpt::math::TTwist2D velocity{0.0, 0.0, 0.0};  // odometry frame, from successive poses
-  const ObstaclePoints* obstacles = nullptr;
+  ObstaclePoints obstacles;  // the step's points without the robot's own body
+  std::size_t self_points = 0;
 
   // The held command: speed along a direction fixed in the odometry frame (CPTG_Holo_Blend's
   // paths keep their heading while the robot turns) and the turn rate.
@@ -219,13 +254,10 @@ struct NavigatorCore::Impl : public mrpt::nav::CRobot2NavInterface
   bool senseObstacles(mrpt::maps::CSimplePointsMap& map, mrpt::system::TTimeStamp& timestamp) override
   {
     map.clear();
-    if (obstacles != nullptr)
-    {
-      map.reserve(obstacles->size());
-      const bool volumetric = parameters.volumetric();
-      for (const auto& p : *obstacles)
-        map.insertPointFast(p.x(), p.y(), volumetric ? p.z() : 0.0f);
-    }
+    map.reserve(obstacles.size());
+    const bool volumetric = parameters.volumetric();
+    for (const auto& p : obstacles)
+      map.insertPointFast(p.x(), p.y(), volumetric ? p.z() : 0.0f);
     timestamp = mrpt::Clock::now();
     return true;
   }
@@ -275,7 +307,16 @@ Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints
   d.previous_time = time;
   d.time = time;
   d.pose = pose;
-  d.obstacles = &obstacles;
+  d.obstacles.clear();
+  d.self_points = 0;
+  for (const auto& point : obstacles)
+  {
+    const Polygon* shape = shapeAt(d.parameters, point.z());
+    if (shape != nullptr && insideGrown(*shape, point.x(), point.y(), d.parameters.self_padding))
+      ++d.self_points;
+    else
+      d.obstacles.push_back(point);
+  }
 
   if (d.state == NavigationState::Navigating)
   {
@@ -295,7 +336,6 @@ Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints
     if (d.navigator->getCurrentState() == mrpt::nav::CAbstractNavigator::NAV_ERROR)
       d.state = NavigationState::Blocked;
   }
-  d.obstacles = nullptr;
   if (d.state != NavigationState::Navigating)
   {
     d.speed = 0.0;
@@ -306,6 +346,8 @@ Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints
 }
 
 NavigationState NavigatorCore::state() const { return impl_->state; }
+std::size_t NavigatorCore::lastObstaclePoints() const { return impl_->obstacles.size(); }
+std::size_t NavigatorCore::lastSelfPoints() const { return impl_->self_points; }
 const NavigatorParameters& NavigatorCore::parameters() const { return impl_->parameters; }
 
 }  // namespace reactive_navigator

@@ -74,6 +74,8 @@ void NavigatorParameters::validate() const
   requirePositive("goal_tolerance", goal_tolerance);
   requirePositive("lookahead", lookahead);
   requirePositive("blocked_timeout", blocked_timeout);
+  if (!std::isfinite(self_padding) || self_padding < 0.0)
+    throw ParameterError("self_padding", "must be a finite number >= 0");
   if (path_count < 3 || path_count > 1001)
     throw ParameterError("path_count", "must be within [3, 1001]");
 }

@@ -142,6 +142,7 @@ void readParameters(const ros::NodeHandle& nh, NavigatorParameters& p, NodeParam
   readNumber(nh, "lookahead", p.lookahead);
   readInt(nh, "path_count", p.path_count);
   readNumber(nh, "blocked_timeout", p.blocked_timeout);
+  readNumber(nh, "self_padding", p.self_padding);
   p.validate();
 
   readStringList(nh, "scan_topics", n.scan_topics);
@@ -206,10 +207,7 @@ ReactiveNavigatorRos::ReactiveNavigatorRos(ros::NodeHandle nh, ros::NodeHandle p
   diagnostics_.add("navigator", this, &ReactiveNavigatorRos::diagnose);
   diagnostics_timer_ = laserscan_common::diagnosticsTimer(nh_, diagnostics_);
 
-  std_msgs::String state;
-  state.data = stateName(NavigationState::Idle);
-  state_pub_.publish(state);
-  state_published_ = true;
+  publishState();
 }
 
 void ReactiveNavigatorRos::warn(const std::string& kind, const std::string& text)
@@ -247,6 +245,7 @@ void ReactiveNavigatorRos::goalArrived(const geometry_msgs::PoseStamped::ConstPt
     }
   }
   core_->setGoal(in_odom.x(), in_odom.y());
+  publishState();  // at once: a simulator waits for it before the goal's first step
   ROS_INFO("%s: new goal (%.2f, %.2f) in '%s'", ros::this_node::getName().c_str(), in_odom.x(), in_odom.y(),
            parameters_.odom_frame.c_str());
 }
@@ -469,20 +468,25 @@ void ReactiveNavigatorRos::runStep(const ros::Time& time, bool latest_pose)
   step.twist.angular.z = command.wz;
   cmd_pub_.publish(step.twist);
   step_pub_.publish(step);
-  const NavigationState state = core_->state();
-  if (!state_published_ || state != published_state_)
-  {
-    std_msgs::String message;
-    message.data = stateName(state);
-    state_pub_.publish(message);
-    published_state_ = state;
-    state_published_ = true;
-  }
+  publishState();
   cpu_sum_ += cpu;
   cpu_max_ = std::max(cpu_max_, cpu);
-  points_sum_ += points_.size();
+  points_sum_ += core_->lastObstaclePoints();
+  self_points_sum_ += core_->lastSelfPoints();
   ++steps_;
   ++steps_total_;
+}
+
+void ReactiveNavigatorRos::publishState()
+{
+  const NavigationState state = core_->state();
+  if (state_published_ && state == published_state_)
+    return;
+  std_msgs::String message;
+  message.data = stateName(state);
+  state_pub_.publish(message);
+  published_state_ = state;
+  state_published_ = true;
 }
 
 void ReactiveNavigatorRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status)
@@ -499,8 +503,9 @@ void ReactiveNavigatorRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
   status.add("cpu per step mean (ms)", steps_ ? 1e3 * cpu_sum_ / static_cast<double>(steps_) : 0.0);
   status.add("cpu per step max (ms)", 1e3 * cpu_max_);
   status.add("obstacle points per step", steps_ ? points_sum_ / steps_ : 0);
+  status.add("own body points per step", steps_ ? self_points_sum_ / steps_ : 0);
   cpu_sum_ = cpu_max_ = 0.0;
-  points_sum_ = steps_ = 0;
+  points_sum_ = self_points_sum_ = steps_ = 0;
 }
 
 }  // namespace reactive_navigator

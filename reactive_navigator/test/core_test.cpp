@@ -161,6 +161,25 @@ TEST(NavigatorCore, The2dNavigatorFedOnlyTheLegsDrivesUnderTheTable)
   EXPECT_EQ(run.state, NavigationState::Reached);
 }
 
+TEST(NavigatorCore, PointsOnItsOwnBodyAreDroppedAndDoNotHoldItBack)
+{
+  for (const char* mode : {"2d", "3d"})
+  {
+    NavigatorParameters p;
+    p.mode = mode;
+    NavigatorCore core(p);
+    core.setGoal(3.0, 0.0);
+    // What a corner lidar sees of the body (inside, and 3 cm off its side), and one real obstacle.
+    const ObstaclePoints points = {{0.30f, 0.20f, 0.2f}, {-0.35f, 0.27f, 0.2f}, {0.0f, 0.0f, 0.7f}, {2.0f, 2.0f, 0.2f}};
+    Command c;
+    for (int i = 0; i < 5; ++i)
+      c = core.step(0.1 * i, Pose2{}, points);
+    EXPECT_EQ(core.lastSelfPoints(), 3u) << mode;
+    EXPECT_EQ(core.lastObstaclePoints(), 1u) << mode;
+    EXPECT_GT(c.vx, 0.1) << mode;
+  }
+}
+
 TEST(NavigatorCore, IdleWithoutAGoal)
 {
   NavigatorCore core(NavigatorParameters{});
@@ -239,6 +258,9 @@ TEST(Parameters, EachBadValueNamesItsParameter)
   p = NavigatorParameters{};
   p.path_count = 2;
   expectError(p, "path_count");
+  p = NavigatorParameters{};
+  p.self_padding = -0.1;
+  expectError(p, "self_padding");
 
   auto expectNodeError = [](const NodeParameters& n, const std::string& name) {
     try

@@ -54,10 +54,16 @@ public:
   /// A new goal (odometry frame); replaces any former one.
   void setGoal(double x, double y);
   /// One control step at `time` (s, increasing): the robot's pose then and the obstacles seen.
+  /// Points inside the robot's own shape (grown by self_padding) are dropped first: they are its
+  /// body (a corner lidar sees it; REP 117's -Inf beams where the body hides the view become
+  /// points at range_min, inside it), and MRPT would take them as a collision and never move.
   /// Returns the command to drive until the next step (zero unless navigating).
   Command step(double time, const Pose2& pose, const ObstaclePoints& obstacles);
 
   NavigationState state() const;
+  /// Obstacle points of the last step: handed to MRPT, and dropped as the robot's own body.
+  std::size_t lastObstaclePoints() const;
+  std::size_t lastSelfPoints() const;
   const NavigatorParameters& parameters() const;
 
 private:

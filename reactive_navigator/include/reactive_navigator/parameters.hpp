@@ -47,6 +47,7 @@ struct NavigatorParameters
   double lookahead = 4.0;                                    ///< m, obstacles farther away are ignored
   int path_count = 61;                                       ///< candidate directions of the PTG
   double blocked_timeout = 15.0;                             ///< s without approaching the goal -> blocked
+  double self_padding = 0.05;  ///< m: points within the shape grown by this are the robot's own body
 
   void validate() const;
   bool volumetric() const { return mode == "3d"; }

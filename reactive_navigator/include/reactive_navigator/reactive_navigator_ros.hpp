@@ -54,6 +54,7 @@ private:
   void collectObstacles(const ros::Time& time, bool up_to_time);
   void runStep(const ros::Time& time, bool latest_pose);
   ros::Time onGrid(const ros::Time& time, long& index) const;
+  void publishState();  // ~state when it changed (latched)
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   void warn(const std::string& kind, const std::string& text);
 
@@ -83,6 +84,7 @@ private:
   double cpu_sum_ = 0.0;
   double cpu_max_ = 0.0;
   std::size_t points_sum_ = 0;
+  std::size_t self_points_sum_ = 0;
   std::size_t steps_ = 0;
   std::size_t steps_total_ = 0;
 };
