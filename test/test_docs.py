@@ -44,6 +44,11 @@ COMMANDS = {
     "scripts/simulate_scenario -o /tmp/shop.bag": "scripts/demo",
     "scripts/simulate_scenario -o /tmp/shop.bag --duration 20 --laps 1 --seed 0 --camera-points 52000 "
     "--no-progress": "test/test_scenario.py",
+    "scripts/simulate_scenario --closed-loop --scripted --route table --camera-points 10000 "
+    "--record /tmp/table_run.json": CHECKED,
+    "scripts/simulate_scenario --closed-loop --route shop --camera-points 50000 --depth-output image "
+    "--step-topic /reactive_navigator/step --state-topic /reactive_navigator/state "
+    "--record /tmp/shop_run.json": "test/test_closed_loop_ros.py",
     "scripts/evaluate_bag /tmp/shop.bag --output /tmp/eval": "scripts/demo",
     "scripts/evaluate_bag /tmp/shop.bag --output /tmp/eval --map-topics /lidar_scan /merged_scan": "scripts/demo",
     "scripts/evaluate_bag /tmp/shop.bag --output /tmp/eval --map-topics --no-plots": CHECKED,

@@ -5,7 +5,9 @@ from tf2_msgs.msg import TFMessage
 
 
 def stamp(t):
-    """rospy.Time from float seconds."""
+    """rospy.Time from float seconds (a rospy.Time as it is: exact nanoseconds)."""
+    if isinstance(t, rospy.Time):
+        return t
     return rospy.Time.from_sec(float(t))
 
 

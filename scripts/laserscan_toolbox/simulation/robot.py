@@ -440,19 +440,49 @@ def simulate_trajectory(robot, route, laps, duration, dt=0.005, wait=1.0, switch
     return arr
 
 
-def simulate_odometry(traj, times, noise, rng):
-    """Wheel odometry at ``times`` (relative s) from the true trajectory.
+class WheelOdometry:
+    """Wheel odometry integrated step by step from the true motion (the bag's route and the
+    closed loop share it).  The per-run scale errors are drawn from ``rng`` at construction;
+    every step's true motion, in the body frame, is corrupted (scale errors, white noise,
+    heading bias while moving) and integrated from the identity pose (the odom frame starts at
+    the robot's initial pose, REP 105).  Standing still reads exactly zero motion."""
 
-    The true motion between consecutive stamps, expressed in the body frame, is
-    corrupted (scale errors, white noise, heading bias while moving) and
-    integrated from the identity pose (the odom frame starts at the robot's
-    initial pose, REP 105).  Returns (x, y, yaw, v, w) arrays in odom.
-    """
+    def __init__(self, noise, rng):
+        self.noise = noise
+        self.scale_v = 1.0 + rng.normal(0.0, noise.scale_sigma_v)
+        self.scale_w = 1.0 + rng.normal(0.0, noise.scale_sigma_w)
+        self.x = self.y = self.yaw = 0.0
+
+    def step(self, ds, dth, dt, rng, lateral=0.0):
+        """Integrate one step: ``ds`` forward and ``lateral`` (m, body frame at the step's
+        start; lateral only for an omnidirectional base, its noise drawn only when non-zero),
+        ``dth`` (rad) in ``dt`` s.  Returns the measured (vx, vy, w)."""
+        noise = self.noise
+        moving = abs(ds) > 1e-6 or abs(dth) > 1e-6 or abs(lateral) > 1e-6
+        if moving:
+            ds = ds * self.scale_v + rng.normal(0.0, noise.noise_v * abs(ds))
+            if lateral != 0.0:
+                lateral = lateral * self.scale_v + rng.normal(0.0, noise.noise_v * abs(lateral))
+            dth = (dth * self.scale_w + noise.bias_w * dt
+                   + rng.normal(0.0, noise.noise_w * abs(dth) + noise.noise_w_per_m * math.hypot(ds, lateral)))
+        else:
+            ds = dth = lateral = 0.0
+        mid = self.yaw + 0.5 * dth
+        c, s = math.cos(mid), math.sin(mid)
+        self.x += ds * c - lateral * s
+        self.y += ds * s + lateral * c
+        self.yaw += dth
+        return ds / dt, lateral / dt, dth / dt
+
+
+def simulate_odometry(traj, times, noise, rng):
+    """Wheel odometry at ``times`` (relative s) from the true trajectory (``WheelOdometry``
+    fed the forward motion between consecutive stamps).  Returns (x, y, yaw, v, w) arrays in
+    odom."""
     tx = np.interp(times, traj["t"], traj["x"])
     ty = np.interp(times, traj["t"], traj["y"])
     tyaw = np.interp(times, traj["t"], traj["yaw_unwrapped"])
-    scale_v = 1.0 + rng.normal(0.0, noise.scale_sigma_v)
-    scale_w = 1.0 + rng.normal(0.0, noise.scale_sigma_w)
+    odo = WheelOdometry(noise, rng)
     n = len(times)
     x = np.zeros(n)
     y = np.zeros(n)
@@ -460,22 +490,8 @@ def simulate_odometry(traj, times, noise, rng):
     v = np.zeros(n)
     w = np.zeros(n)
     for k in range(1, n):
-        dt = times[k] - times[k - 1]
         c, s = math.cos(tyaw[k - 1]), math.sin(tyaw[k - 1])
-        dxw, dyw = tx[k] - tx[k - 1], ty[k] - ty[k - 1]
-        ds = c * dxw + s * dyw           # forward motion in the body frame
-        dth = tyaw[k] - tyaw[k - 1]
-        moving = abs(ds) > 1e-6 or abs(dth) > 1e-6
-        if moving:
-            ds = ds * scale_v + rng.normal(0.0, noise.noise_v * abs(ds))
-            dth = (dth * scale_w + noise.bias_w * dt
-                   + rng.normal(0.0, noise.noise_w * abs(dth) + noise.noise_w_per_m * abs(ds)))
-        else:
-            ds = dth = 0.0
-        mid = yaw[k - 1] + 0.5 * dth
-        x[k] = x[k - 1] + ds * math.cos(mid)
-        y[k] = y[k - 1] + ds * math.sin(mid)
-        yaw[k] = yaw[k - 1] + dth
-        v[k] = ds / dt
-        w[k] = dth / dt
+        ds = c * (tx[k] - tx[k - 1]) + s * (ty[k] - ty[k - 1])  # forward motion in the body frame
+        v[k], _, w[k] = odo.step(ds, tyaw[k] - tyaw[k - 1], times[k] - times[k - 1], rng)
+        x[k], y[k], yaw[k] = odo.x, odo.y, odo.yaw
     return x, y, np.array([_wrap(a) for a in yaw]), v, w

@@ -61,6 +61,14 @@ FRAMES = {"map": "map", "odom": "odom", "base": "base_link"}
 DEFAULT_START_TIME = 1000.0
 
 
+def stamped(msg, t, frame):
+    """``msg`` with its header stamped t (float s or rospy.Time) in ``frame``."""
+    from ..ros import bagio
+    msg.header.stamp = bagio.stamp(t)
+    msg.header.frame_id = frame
+    return msg
+
+
 class Scenario:
     """A fully determined simulation: the same parameters give the same bag."""
 
@@ -233,12 +241,18 @@ class Scenario:
         centers, half, yaw = self.robot.arm.boxes(rel)
         return raycast.ray_own_boxes(o, d, centers, half, yaw)
 
-    def lidar_scan(self, lidar, rel_stamp, rng, body=None):
-        """Noisy ranges (beams,) of one swept scan starting at rel_stamp (relative s)."""
+    def lidar_scan(self, lidar, rel_stamp, rng, body=None, pose=None):
+        """Noisy ranges (beams,) of one swept scan starting at rel_stamp (relative s); with
+        ``pose`` (x, y, yaw in map) an instantaneous scan from there (the closed loop, whose
+        trajectory is not known ahead)."""
         angles, _ = self._lidar_angles(lidar)
-        scan_time = 1.0 / lidar.rate
-        rel = rel_stamp + np.arange(lidar.beams) * (scan_time / lidar.beams)
-        x, y, yaw = self.true_pose(rel + self.start_time)
+        if pose is None:
+            scan_time = 1.0 / lidar.rate
+            rel = rel_stamp + np.arange(lidar.beams) * (scan_time / lidar.beams)
+            x, y, yaw = self.true_pose(rel + self.start_time)
+        else:
+            rel = np.full(lidar.beams, float(rel_stamp))
+            x, y, yaw = (np.full(lidar.beams, float(v)) for v in pose)
         c, s = np.cos(yaw), np.sin(yaw)
         lx, ly, lz = lidar.xyz
         o = np.column_stack([x + c * lx - s * ly, y + s * lx + c * ly, np.full(len(rel), lz)])
@@ -255,11 +269,12 @@ class Scenario:
         r = np.where(r > lidar.range_max, np.inf, r)
         return np.where(r < lidar.range_min, -np.inf, r)
 
-    def sonar_range(self, sonar, rel, rng):
+    def sonar_range(self, sonar, rel, rng, pose=None):
         """One noisy ultrasonic reading (m) at relative time rel: the closest surface in
         the cone (glass included), ``max_range`` when nothing echoes within it, -inf when
-        it is closer than ``min_range``."""
-        x, y, yaw = self.true_pose(rel + self.start_time)
+        it is closer than ``min_range``.  ``pose``: the robot's (x, y, yaw) in map instead of
+        the scenario's trajectory at rel (the closed loop)."""
+        x, y, yaw = self.true_pose(rel + self.start_time) if pose is None else pose
         c, s = math.cos(yaw), math.sin(yaw)
         sx, sy, sz = sonar.xyz
         half = 0.5 * sonar.field_of_view
@@ -273,9 +288,10 @@ class Scenario:
             return -math.inf  # REP 117 driver: too close (a finite value there is an error code)
         return r + float(rng.normal(0.0, sonar.noise_sigma))
 
-    def depth_image(self, cam, rel, rng, rays=None):
-        """Noisy depth (height, width) float metres of one frame, 0 = no depth."""
-        x, y, yaw = self.true_pose(rel + self.start_time)
+    def depth_image(self, cam, rel, rng, rays=None, pose=None):
+        """Noisy depth (height, width) float metres of one frame, 0 = no depth.  ``pose``: as
+        ``sonar_range``."""
+        x, y, yaw = self.true_pose(rel + self.start_time) if pose is None else pose
         r_bo, p_bo = cam.optical_in_base(rel)
         r_wb = rot_z(yaw)
         r_wo = r_wb @ r_bo
@@ -326,7 +342,7 @@ class Scenario:
         import rosbag
         from ..ros import bagio
         from nav_msgs.msg import Odometry
-        from sensor_msgs.msg import LaserScan, Image, CameraInfo, Range
+        from sensor_msgs.msg import CameraInfo
         from std_msgs.msg import String
 
         t_wall = time.time()
@@ -368,14 +384,7 @@ class Scenario:
                 bt = bagio.stamp(t0 + bag_rel)
                 if name == "odom":
                     s = t0 + odom_rel[k]
-                    tfs = [bagio.transform(s, FRAMES["odom"], FRAMES["base"], (ox[k], oy[k], 0.0),
-                                           quat_from_yaw(oyaw[k]))]
-                    for C in self.robot.cameras:
-                        tfs.append(bagio.transform(s, FRAMES["base"], C.tilt_frame, C.xyz,
-                                                   quat_from_matrix(C.tilt_rotation(odom_rel[k]))))
-                    for link, parent, xyz, yaw in self.robot.arm.joint_transforms(odom_rel[k]):
-                        tfs.append(bagio.transform(s, parent, link, xyz, quat_from_yaw(yaw)))
-                    bag.write(TOPICS["tf"], bagio.tf_message(tfs), bt)
+                    bag.write(TOPICS["tf"], self.tf_msg(s, (ox[k], oy[k], oyaw[k]), odom_rel[k]), bt)
                     bag.write(TOPICS["odom"], self._odom_msg(Odometry, s, FRAMES["odom"],
                                                              (ox[k], oy[k], oyaw[k]), (ov[k], ow[k]), True), bt)
                     gt = self.true_pose(s)
@@ -384,40 +393,16 @@ class Scenario:
                 elif name in lidars:
                     L = lidars[name]
                     rel = sched[name][k]
-                    r = self.lidar_scan(L, rel, rng, body[name])
-                    m = LaserScan()
-                    m.header.stamp = bagio.stamp(t0 + rel)
-                    m.header.frame_id = L.frame
-                    angles, inc = self._lidar_angles(L)
-                    m.angle_min, m.angle_max, m.angle_increment = float(angles[0]), float(angles[-1]), inc
-                    m.scan_time = 1.0 / L.rate
-                    m.time_increment = m.scan_time / L.beams
-                    m.range_min, m.range_max = L.range_min, L.range_max
-                    m.ranges = r.astype(np.float32).tolist()
-                    bag.write(TOPICS[name], m, bt)
+                    ranges = self.lidar_scan(L, rel, rng, body[name])
+                    bag.write(TOPICS[name], self.lidar_msg(L, t0 + rel, ranges), bt)
                 elif name in sonars:
                     S = sonars[name]
                     rel = sched[name][k]
-                    m = Range()
-                    m.header.stamp = bagio.stamp(t0 + rel)
-                    m.header.frame_id = S.frame
-                    m.radiation_type = Range.ULTRASOUND
-                    m.field_of_view = S.field_of_view
-                    m.min_range, m.max_range = S.min_range, S.max_range
-                    m.range = self.sonar_range(S, rel, rng)
-                    bag.write(TOPICS[name], m, bt)
+                    bag.write(TOPICS[name], self.sonar_msg(S, t0 + rel, self.sonar_range(S, rel, rng)), bt)
                 else:
                     C = cams[name]
                     rel = sched[name][k]
-                    depth = self.depth_image(C, rel, rng, rays[name])
-                    img = Image()
-                    img.header.stamp = bagio.stamp(t0 + rel)
-                    img.header.frame_id = C.optical_frame
-                    img.height, img.width = C.height, C.width
-                    img.encoding = "16UC1"
-                    img.is_bigendian = 0
-                    img.step = 2 * C.width
-                    img.data = np.round(depth * 1000.0).astype("<u2").tobytes()
+                    img = self.depth_msg(C, t0 + rel, self.depth_image(C, rel, rng, rays[name]))
                     bag.write(TOPICS[name + "_depth"], img, bt)
                     bag.write(TOPICS[name + "_info"], self.camera_info(C, img.header, CameraInfo), bt)
                 counts[name] = counts.get(name, 0) + 1
@@ -427,6 +412,56 @@ class Scenario:
             bar.close()
         return {"seconds": time.time() - t_wall, "bytes": os.path.getsize(output),
                 "duration": self.duration, "messages": counts}
+
+    # ----- messages (the bag's and the closed loop's) ---------------------------------------
+    def tf_msg(self, t, odom_pose, rel):
+        """/tf at ROS time t: odom -> base_link at ``odom_pose`` (x, y, yaw), the camera servos
+        and the arm's joints at relative time rel."""
+        from ..ros import bagio
+        tfs = [bagio.transform(t, FRAMES["odom"], FRAMES["base"], (odom_pose[0], odom_pose[1], 0.0),
+                               quat_from_yaw(odom_pose[2]))]
+        for C in self.robot.cameras:
+            tfs.append(bagio.transform(t, FRAMES["base"], C.tilt_frame, C.xyz,
+                                       quat_from_matrix(C.tilt_rotation(rel))))
+        for link, parent, xyz, yaw in self.robot.arm.joint_transforms(rel):
+            tfs.append(bagio.transform(t, parent, link, xyz, quat_from_yaw(yaw)))
+        return bagio.tf_message(tfs)
+
+    def lidar_msg(self, lidar, t, ranges, swept=True):
+        """sensor_msgs/LaserScan of ``lidar`` stamped t (beams swept over the scan time, or
+        all measured at t: ``swept`` False)."""
+        from sensor_msgs.msg import LaserScan
+        m = stamped(LaserScan(), t, lidar.frame)
+        angles, inc = self._lidar_angles(lidar)
+        m.angle_min, m.angle_max, m.angle_increment = float(angles[0]), float(angles[-1]), inc
+        m.scan_time = 1.0 / lidar.rate
+        m.time_increment = m.scan_time / lidar.beams if swept else 0.0
+        m.range_min, m.range_max = lidar.range_min, lidar.range_max
+        m.ranges = np.asarray(ranges).astype(np.float32).tolist()
+        return m
+
+    @staticmethod
+    def sonar_msg(sonar, t, reading):
+        """sensor_msgs/Range of ``sonar`` stamped t."""
+        from sensor_msgs.msg import Range
+        m = stamped(Range(), t, sonar.frame)
+        m.radiation_type = Range.ULTRASOUND
+        m.field_of_view = sonar.field_of_view
+        m.min_range, m.max_range = sonar.min_range, sonar.max_range
+        m.range = reading
+        return m
+
+    @staticmethod
+    def depth_msg(cam, t, depth):
+        """sensor_msgs/Image (16UC1, mm, 0 = no depth) of a depth frame (metres) stamped t."""
+        from sensor_msgs.msg import Image
+        img = stamped(Image(), t, cam.optical_frame)
+        img.height, img.width = cam.height, cam.width
+        img.encoding = "16UC1"
+        img.is_bigendian = 0
+        img.step = 2 * cam.width
+        img.data = np.round(depth * 1000.0).astype("<u2").tobytes()
+        return img
 
     @staticmethod
     def camera_info(cam, header, cls):
@@ -451,7 +486,10 @@ class Scenario:
         p.position.x, p.position.y = float(pose[0]), float(pose[1])
         q = quat_from_yaw(float(pose[2]))
         p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = q
-        m.twist.twist.linear.x, m.twist.twist.angular.z = float(twist[0]), float(twist[1])
+        # twist: (v, w) of the unicycle route, or (vx, vy, w) of the omnidirectional closed loop.
+        m.twist.twist.linear.x, m.twist.twist.angular.z = float(twist[0]), float(twist[-1])
+        if len(twist) == 3:
+            m.twist.twist.linear.y = float(twist[1])
         if noisy:
             cov = [0.0] * 36
             cov[0] = cov[7] = 0.01
