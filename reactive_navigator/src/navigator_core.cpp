@@ -22,10 +22,14 @@ const char* stateName(NavigationState state)
 {
   switch (state)
   {
-    case NavigationState::Idle: return "idle";
-    case NavigationState::Navigating: return "navigating";
-    case NavigationState::Reached: return "reached";
-    case NavigationState::Blocked: return "blocked";
+    case NavigationState::Idle:
+      return "idle";
+    case NavigationState::Navigating:
+      return "navigating";
+    case NavigationState::Reached:
+      return "reached";
+    case NavigationState::Blocked:
+      return "blocked";
   }
   return "unknown";
 }
@@ -124,7 +128,8 @@ std::string mrptConfig(const NavigatorParameters& p)
     // The caller keeps the height band: MRPT's own band is opened wide.
     ini << "min_obstacles_height = -1000\nmax_obstacles_height = 1000\n"
         << "RobotModel_shape2D_xs = " << joined(p.footprint, 0) << "\n"
-        << "RobotModel_shape2D_ys = " << joined(p.footprint, 1) << "\n"
+        << "RobotModel_shape2D_ys = " << joined(p.footprint, 1)
+        << "\n"
         // CPTG_Holo_Blend models the robot as a circle: the footprint's circumscribed one.
         << "RobotModel_circular_shape_radius = " << circumradius(p.footprint) << "\n";
   }
@@ -173,13 +178,13 @@ struct NavigatorCore::Impl : public mrpt::nav::CRobot2NavInterface
   NavigatorParameters parameters;
   std::unique_ptr<mrpt::nav::CAbstractPTGBasedReactive> navigator;
 
-  double time = 0.0;             // the current step's time
-  double timer_start = 0.0;      // for getNavigationTime()
+  double time = 0.0;         // the current step's time
+  double timer_start = 0.0;  // for getNavigationTime()
   Pose2 pose;
   Pose2 previous_pose;
   double previous_time = std::nan("");
-  mrpt::math::TTwist2D velocity{0.0, 0.0, 0.0};  // odometry frame, from successive poses
-  ObstaclePoints obstacles;  // the step's points without the robot's own body
+  mrpt::math::TTwist2D velocity{ 0.0, 0.0, 0.0 };  // odometry frame, from successive poses
+  ObstaclePoints obstacles;                        // the step's points without the robot's own body
   std::size_t self_points = 0;
 
   // The held command: speed along a direction fixed in the odometry frame (CPTG_Holo_Blend's
@@ -191,8 +196,8 @@ struct NavigatorCore::Impl : public mrpt::nav::CRobot2NavInterface
   NavigationState state = NavigationState::Idle;
   double goal_x = 0.0;
   double goal_y = 0.0;
-  double best_distance = 0.0;   // closest to the goal so far
-  double progress_time = 0.0;   // when it last got kProgress closer
+  double best_distance = 0.0;  // closest to the goal so far
+  double progress_time = 0.0;  // when it last got kProgress closer
 
   explicit Impl(const NavigatorParameters& p) : parameters(p)
   {
@@ -342,12 +347,24 @@ Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints
     d.turn_rate = 0.0;
   }
   const double heading = d.direction - pose.yaw;  // the held direction, seen from the robot now
-  return Command{d.speed * std::cos(heading), d.speed * std::sin(heading), d.turn_rate};
+  return Command{ d.speed * std::cos(heading), d.speed * std::sin(heading), d.turn_rate };
 }
 
-NavigationState NavigatorCore::state() const { return impl_->state; }
-std::size_t NavigatorCore::lastObstaclePoints() const { return impl_->obstacles.size(); }
-std::size_t NavigatorCore::lastSelfPoints() const { return impl_->self_points; }
-const NavigatorParameters& NavigatorCore::parameters() const { return impl_->parameters; }
+NavigationState NavigatorCore::state() const
+{
+  return impl_->state;
+}
+std::size_t NavigatorCore::lastObstaclePoints() const
+{
+  return impl_->obstacles.size();
+}
+std::size_t NavigatorCore::lastSelfPoints() const
+{
+  return impl_->self_points;
+}
+const NavigatorParameters& NavigatorCore::parameters() const
+{
+  return impl_->parameters;
+}
 
 }  // namespace reactive_navigator

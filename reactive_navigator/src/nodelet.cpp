@@ -19,8 +19,7 @@ private:
     catch (const ParameterError& e)
     {
       // Bad configuration: say which parameter and why, and do nothing else.
-      NODELET_FATAL("bad configuration, not navigating: parameter '%s': %s", e.parameter().c_str(),
-                    e.reason().c_str());
+      NODELET_FATAL("bad configuration, not navigating: parameter '%s': %s", e.parameter().c_str(), e.reason().c_str());
     }
   }
 

@@ -41,17 +41,20 @@ void requirePolygon(const std::string& name, const Polygon& polygon)
 
 Polygon box(double x_min, double x_max, double y_min, double y_max)
 {
-  return {{x_max, y_max}, {x_min, y_max}, {x_min, y_min}, {x_max, y_min}};
+  return { { x_max, y_max }, { x_min, y_max }, { x_min, y_min }, { x_max, y_min } };
 }
 
 }  // namespace
 
-Polygon paperRobotFootprint() { return box(-0.37, 0.37, -0.24, 0.24); }
+Polygon paperRobotFootprint()
+{
+  return box(-0.37, 0.37, -0.24, 0.24);
+}
 
 std::vector<ShapeLevel> paperRobotShape3d()
 {
   // The stowed arm stays within the base's outline; above the base it is the whole robot's top.
-  return {{0.60, paperRobotFootprint()}, {0.30, paperRobotFootprint()}};
+  return { { 0.60, paperRobotFootprint() }, { 0.30, paperRobotFootprint() } };
 }
 
 void NavigatorParameters::validate() const
@@ -85,7 +88,7 @@ void NodeParameters::validate() const
   if (scan_topics.empty() && cloud_topics.empty())
     throw ParameterError("scan_topics", "no obstacle source: give scan_topics and/or cloud_topics");
   std::set<std::string> seen;
-  for (const auto* list : {&scan_topics, &cloud_topics})
+  for (const auto* list : { &scan_topics, &cloud_topics })
     for (const auto& topic : *list)
     {
       const char* name = list == &scan_topics ? "scan_topics" : "cloud_topics";

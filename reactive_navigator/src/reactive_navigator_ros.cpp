@@ -95,7 +95,8 @@ Polygon toPolygon(const std::string& name, XmlRpcValue& v)
   for (int i = 0; i < v.size(); ++i)
   {
     XmlRpcValue& vertex = v[i];
-    if (vertex.getType() != XmlRpcValue::TypeArray || vertex.size() != 2 || !isNumber(vertex[0]) || !isNumber(vertex[1]))
+    if (vertex.getType() != XmlRpcValue::TypeArray || vertex.size() != 2 || !isNumber(vertex[0]) ||
+        !isNumber(vertex[1]))
       throw ParameterError(name, "must be a list of [x, y] vertices (m)");
     polygon.emplace_back(toDouble(vertex[0]), toDouble(vertex[1]));
   }
@@ -132,7 +133,7 @@ void readParameters(const ros::NodeHandle& nh, NavigatorParameters& p, NodeParam
       if (level.getType() != XmlRpcValue::TypeStruct || !level.hasMember("height") || !level.hasMember("polygon") ||
           !isNumber(level["height"]))
         throw ParameterError(name, "must be {height: m, polygon: [[x, y], ...]}");
-      p.shape_3d.push_back(ShapeLevel{toDouble(level["height"]), toPolygon(name + ".polygon", level["polygon"])});
+      p.shape_3d.push_back(ShapeLevel{ toDouble(level["height"]), toPolygon(name + ".polygon", level["polygon"]) });
     }
   }
   readNumber(nh, "max_linear_speed", p.max_linear_speed);
@@ -178,17 +179,17 @@ ReactiveNavigatorRos::ReactiveNavigatorRos(ros::NodeHandle nh, ros::NodeHandle p
 
   for (const auto& topic : parameters_.scan_topics)
   {
-    sources_.push_back(Source{topic, false, {}, {}, ros::Time()});
+    sources_.push_back(Source{ topic, false, {}, {}, ros::Time() });
     const std::size_t index = sources_.size() - 1;
     obstacle_subs_.push_back(nh_.subscribe<sensor_msgs::LaserScan>(
-        topic, 10, [this, index](const sensor_msgs::LaserScan::ConstPtr& m) { scanArrived(index, m); }));
+      topic, 10, [this, index](const sensor_msgs::LaserScan::ConstPtr& m) { scanArrived(index, m); }));
   }
   for (const auto& topic : parameters_.cloud_topics)
   {
-    sources_.push_back(Source{topic, true, {}, {}, ros::Time()});
+    sources_.push_back(Source{ topic, true, {}, {}, ros::Time() });
     const std::size_t index = sources_.size() - 1;
     obstacle_subs_.push_back(nh_.subscribe<sensor_msgs::PointCloud2>(
-        topic, 10, [this, index](const sensor_msgs::PointCloud2::ConstPtr& m) { cloudArrived(index, m); }));
+      topic, 10, [this, index](const sensor_msgs::PointCloud2::ConstPtr& m) { cloudArrived(index, m); }));
   }
 
   if (parameters_.lockstep)
@@ -198,10 +199,11 @@ ReactiveNavigatorRos::ReactiveNavigatorRos(ros::NodeHandle nh, ros::NodeHandle p
     watchdog_timer_ = nh_.createWallTimer(ros::WallDuration(parameters_.lockstep_timeout / 4.0),
                                           &ReactiveNavigatorRos::lockstepWatchdog, this);
     retry_timer_ = nh_.createWallTimer(
-        ros::WallDuration(0.002), [this](const ros::WallTimerEvent&) { tryLockstepStep(); }, true, false);
+      ros::WallDuration(0.002), [this](const ros::WallTimerEvent&) { tryLockstepStep(); }, true, false);
   }
   else
-    step_timer_ = nh_.createTimer(ros::Duration(1.0 / parameters_.control_rate), &ReactiveNavigatorRos::timerStep, this);
+    step_timer_ =
+      nh_.createTimer(ros::Duration(1.0 / parameters_.control_rate), &ReactiveNavigatorRos::timerStep, this);
 
   diagnostics_.setHardwareID(ros::this_node::getName());
   diagnostics_.add("navigator", this, &ReactiveNavigatorRos::diagnose);
@@ -221,8 +223,8 @@ void ReactiveNavigatorRos::goalArrived(const geometry_msgs::PoseStamped::ConstPt
   std::lock_guard<std::mutex> lock(mutex_);
   const auto& q = goal->pose.orientation;
   const auto& p = goal->pose.position;
-  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || !std::isfinite(q.x) ||
-      !std::isfinite(q.y) || !std::isfinite(q.z) || !std::isfinite(q.w))
+  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || !std::isfinite(q.x) || !std::isfinite(q.y) ||
+      !std::isfinite(q.z) || !std::isfinite(q.w))
   {
     warn("goal", "goal ignored: its pose is not finite");
     return;
@@ -234,13 +236,14 @@ void ReactiveNavigatorRos::goalArrived(const geometry_msgs::PoseStamped::ConstPt
     try
     {
       // At the goal's stamp; a zero stamp means "the latest transform".
-      const auto t = tf_buffer_.lookupTransform(parameters_.odom_frame, frame.empty() ? "?" : frame, goal->header.stamp);
+      const auto t =
+        tf_buffer_.lookupTransform(parameters_.odom_frame, frame.empty() ? "?" : frame, goal->header.stamp);
       in_odom = tf2::transformToEigen(t) * in_odom;
     }
     catch (const std::exception& e)
     {
       warn("goal", std::string("goal ignored: no transform from its frame '") + frame + "' to '" +
-                       parameters_.odom_frame + "': " + e.what());
+                     parameters_.odom_frame + "': " + e.what());
       return;
     }
   }
@@ -258,7 +261,8 @@ void ReactiveNavigatorRos::scanArrived(std::size_t index, const sensor_msgs::Las
     if (!std::isfinite(scan->angle_min) || !std::isfinite(scan->angle_increment) || scan->angle_increment == 0.0f ||
         !std::isfinite(scan->range_min) || !std::isfinite(scan->range_max) || scan->range_min > scan->range_max)
     {
-      warn(source.topic, "scan on '" + source.topic + "' ignored: angles or range limits are not finite or inconsistent");
+      warn(source.topic,
+           "scan on '" + source.topic + "' ignored: angles or range limits are not finite or inconsistent");
       return;
     }
     source.scans.push_back(scan);
@@ -284,8 +288,8 @@ void ReactiveNavigatorRos::cloudArrived(std::size_t index, const sensor_msgs::Po
     if (found != 3 || cloud->is_bigendian || count * cloud->point_step > cloud->data.size())
     {
       warn(source.topic, "cloud on '" + source.topic +
-                             "' ignored: it needs float32 fields x, y, z (little-endian) and data for width x "
-                             "height points");
+                           "' ignored: it needs float32 fields x, y, z (little-endian) and data for width x "
+                           "height points");
       return;
     }
     source.clouds.push_back(cloud);
@@ -361,8 +365,8 @@ void ReactiveNavigatorRos::lockstepWatchdog(const ros::WallTimerEvent&)
     if (s.newest_stamp.toSec() + kStampEpsilon < time.toSec())
       late += " '" + s.topic + "'";
   warn("lockstep", "lockstep: step at " + std::to_string(time.toSec()) + " s ran after waiting " +
-                       std::to_string(parameters_.lockstep_timeout) + " s for" +
-                       (late.empty() ? std::string(" the robot's tf") : late));
+                     std::to_string(parameters_.lockstep_timeout) + " s for" +
+                     (late.empty() ? std::string(" the robot's tf") : late));
   runStep(time, true);
   next_step_ = index + 1;
   waiting_since_ = ros::WallTime();
@@ -372,8 +376,8 @@ bool ReactiveNavigatorRos::poseAt(const ros::Time& time, bool latest, Pose2& pos
 {
   try
   {
-    const auto t = tf_buffer_.lookupTransform(parameters_.odom_frame, parameters_.robot_frame,
-                                              latest ? ros::Time(0) : time);
+    const auto t =
+      tf_buffer_.lookupTransform(parameters_.odom_frame, parameters_.robot_frame, latest ? ros::Time(0) : time);
     const auto& q = t.transform.rotation;
     pose.x = t.transform.translation.x;
     pose.y = t.transform.translation.y;
@@ -413,19 +417,19 @@ void ReactiveNavigatorRos::collectObstacles(const ros::Time& time, bool up_to_ti
     {
       // The sensor's points as they were at its stamp, seen from the robot at the step's time
       // (through the odometry frame, which does not move).
-      sensor_to_robot = tf2::transformToEigen(tf_buffer_.lookupTransform(
-          parameters_.robot_frame, target_time, laserscan_common::tf2FrameId(header->frame_id), header->stamp,
-          parameters_.odom_frame));
+      sensor_to_robot = tf2::transformToEigen(tf_buffer_.lookupTransform(parameters_.robot_frame, target_time,
+                                                                         laserscan_common::tf2FrameId(header->frame_id),
+                                                                         header->stamp, parameters_.odom_frame));
     }
     catch (const std::exception& e)
     {
-      warn("tf " + s.topic, "no transform for '" + s.topic + "' from '" + header->frame_id + "' at its stamp: " +
-                                e.what());
+      warn("tf " + s.topic,
+           "no transform for '" + s.topic + "' from '" + header->frame_id + "' at its stamp: " + e.what());
       continue;
     }
     if (scan != nullptr)
-      appendScanPoints(ScanView{scan->ranges.data(), scan->ranges.size(), scan->angle_min, scan->angle_increment,
-                                scan->range_min, scan->range_max},
+      appendScanPoints(ScanView{ scan->ranges.data(), scan->ranges.size(), scan->angle_min, scan->angle_increment,
+                                 scan->range_min, scan->range_max },
                        sensor_to_robot, points_);
     else
     {
@@ -456,8 +460,8 @@ void ReactiveNavigatorRos::runStep(const ros::Time& time, bool latest_pose)
     command = core_->step(time.toSec(), pose, points_);
   }
   else
-    warn("pose", "no pose: no transform '" + parameters_.odom_frame + "' -> '" + parameters_.robot_frame +
-                     "' at " + std::to_string(time.toSec()) + " s; the robot is stopped");
+    warn("pose", "no pose: no transform '" + parameters_.odom_frame + "' -> '" + parameters_.robot_frame + "' at " +
+                   std::to_string(time.toSec()) + " s; the robot is stopped");
   const double cpu = cpuSeconds() - cpu_start;
 
   geometry_msgs::TwistStamped step;

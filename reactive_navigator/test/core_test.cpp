@@ -22,7 +22,7 @@ struct DriveResult
 
 // Drives the robot from (0, 0, 0) to the goal among the world points for at most `duration` s.
 DriveResult drive(const NavigatorParameters& p, const ObstaclePoints& world, double goal_x, double goal_y,
-          double duration = 30.0)
+                  double duration = 30.0)
 {
   NavigatorCore core(p);
   core.setGoal(goal_x, goal_y);
@@ -67,7 +67,7 @@ double largestX(const DriveResult& run)
 
 TEST(NavigatorCore, ReachesAGoalInFreeSpace)
 {
-  for (const char* mode : {"2d", "3d"})
+  for (const char* mode : { "2d", "3d" })
   {
     NavigatorParameters p;
     p.mode = mode;
@@ -117,8 +117,8 @@ ObstaclePoints tableAcrossTheWay(double top_z)
 ObstaclePoints tableLegsOnly()
 {
   ObstaclePoints points;
-  for (double y : {-6.0, 6.0})
-    for (double x : {1.5, 2.5})
+  for (double y : { -6.0, 6.0 })
+    for (double x : { 1.5, 2.5 })
       points.emplace_back(static_cast<float>(x), static_cast<float>(y), 0.2f);
   return points;
 }
@@ -163,14 +163,16 @@ TEST(NavigatorCore, The2dNavigatorFedOnlyTheLegsDrivesUnderTheTable)
 
 TEST(NavigatorCore, PointsOnItsOwnBodyAreDroppedAndDoNotHoldItBack)
 {
-  for (const char* mode : {"2d", "3d"})
+  for (const char* mode : { "2d", "3d" })
   {
     NavigatorParameters p;
     p.mode = mode;
     NavigatorCore core(p);
     core.setGoal(3.0, 0.0);
     // What a corner lidar sees of the body (inside, and 3 cm off its side), and one real obstacle.
-    const ObstaclePoints points = {{0.30f, 0.20f, 0.2f}, {-0.35f, 0.27f, 0.2f}, {0.0f, 0.0f, 0.7f}, {2.0f, 2.0f, 0.2f}};
+    const ObstaclePoints points = {
+      { 0.30f, 0.20f, 0.2f }, { -0.35f, 0.27f, 0.2f }, { 0.0f, 0.0f, 0.7f }, { 2.0f, 2.0f, 0.2f }
+    };
     Command c;
     for (int i = 0; i < 5; ++i)
       c = core.step(0.1 * i, Pose2{}, points);
@@ -223,10 +225,10 @@ TEST(Parameters, EachBadValueNamesItsParameter)
   p.mode = "2.5d";
   expectError(p, "mode");
   p = NavigatorParameters{};
-  p.footprint = {{0, 0}, {1, 0}};
+  p.footprint = { { 0, 0 }, { 1, 0 } };
   expectError(p, "footprint");
   p = NavigatorParameters{};
-  p.footprint = {{0, 0}, {1, 0}, {2, 0}};
+  p.footprint = { { 0, 0 }, { 1, 0 }, { 2, 0 } };
   expectError(p, "footprint");
   p = NavigatorParameters{};
   p.shape_3d.clear();
@@ -275,10 +277,10 @@ TEST(Parameters, EachBadValueNamesItsParameter)
   };
   NodeParameters n;
   expectNodeError(n, "scan_topics");
-  n.scan_topics = {"a", "a"};
+  n.scan_topics = { "a", "a" };
   expectNodeError(n, "scan_topics");
-  n.scan_topics = {"a"};
-  n.cloud_topics = {""};
+  n.scan_topics = { "a" };
+  n.cloud_topics = { "" };
   expectNodeError(n, "cloud_topics");
   n.cloud_topics = {};
   n.odom_frame = "";
@@ -302,15 +304,15 @@ TEST(Parameters, EachBadValueNamesItsParameter)
 TEST(ObstaclePoints, ScanBeamsFollowRep117)
 {
   const float inf = std::numeric_limits<float>::infinity();
-  const float ranges[] = {1.0f, inf, -inf, std::nanf(""), 0.05f, 50.0f, 2.0f};
-  ScanView scan{ranges, 7, 0.0, M_PI / 2.0, 0.1, 10.0};
+  const float ranges[] = { 1.0f, inf, -inf, std::nanf(""), 0.05f, 50.0f, 2.0f };
+  ScanView scan{ ranges, 7, 0.0, M_PI / 2.0, 0.1, 10.0 };
   Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
   mount.translation() = Eigen::Vector3d(0.4, 0.0, 0.2);
   ObstaclePoints out;
   ASSERT_EQ(appendScanPoints(scan, mount, out), 3u);
   EXPECT_NEAR(out[0].x(), 1.4f, 1e-6);  // beam 0 at 0 rad, 1 m
   EXPECT_NEAR(out[0].z(), 0.2f, 1e-6);
-  EXPECT_NEAR(out[1].x(), 0.3f, 1e-6);  // beam 2 at pi rad: -Inf -> range_min
+  EXPECT_NEAR(out[1].x(), 0.3f, 1e-6);         // beam 2 at pi rad: -Inf -> range_min
   EXPECT_NEAR(out[2].x(), 0.4f - 2.0f, 1e-5);  // beam 6 at 3 pi rad, 2 m
 }
 
@@ -321,8 +323,8 @@ TEST(ObstaclePoints, CloudPointsAreTransformedAndKeptInTheBand)
   {
     float x, y, z, pad;
   };
-  const P points[] = {{0, 0, 0.5f, 0}, {0, 0, 0.99f, 0}, {0, 0, NAN, 0}, {0, 0, 0.2f, 0}};
-  CloudView cloud{reinterpret_cast<const std::uint8_t*>(points), 4, sizeof(P), 0, 4, 8};
+  const P points[] = { { 0, 0, 0.5f, 0 }, { 0, 0, 0.99f, 0 }, { 0, 0, NAN, 0 }, { 0, 0, 0.2f, 0 } };
+  CloudView cloud{ reinterpret_cast<const std::uint8_t*>(points), 4, sizeof(P), 0, 4, 8 };
   Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
   mount.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
   mount.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();

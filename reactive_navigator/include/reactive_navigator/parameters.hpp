@@ -38,15 +38,15 @@ struct NavigatorParameters
   /// "2d": MRPT's CReactiveNavigationSystem (footprint, obstacle points projected to the floor);
   /// "3d": CReactiveNavigationSystem3D (the shape by height, 3D obstacle points).
   std::string mode = "2d";
-  Polygon footprint = paperRobotFootprint();                 ///< m, robot frame (2d)
-  std::vector<ShapeLevel> shape_3d = paperRobotShape3d();    ///< m, robot frame (3d)
-  double max_linear_speed = 0.5;                             ///< m/s
-  double max_angular_speed = 0.8;                            ///< rad/s
-  double linear_acceleration = 1.0;                          ///< m/s^2 (the PTG's ramp time is speed / this)
-  double goal_tolerance = 0.25;                              ///< m, the goal is reached closer than this
-  double lookahead = 4.0;                                    ///< m, obstacles farther away are ignored
-  int path_count = 61;                                       ///< candidate directions of the PTG
-  double blocked_timeout = 15.0;                             ///< s without approaching the goal -> blocked
+  Polygon footprint = paperRobotFootprint();               ///< m, robot frame (2d)
+  std::vector<ShapeLevel> shape_3d = paperRobotShape3d();  ///< m, robot frame (3d)
+  double max_linear_speed = 0.5;                           ///< m/s
+  double max_angular_speed = 0.8;                          ///< rad/s
+  double linear_acceleration = 1.0;                        ///< m/s^2 (the PTG's ramp time is speed / this)
+  double goal_tolerance = 0.25;                            ///< m, the goal is reached closer than this
+  double lookahead = 4.0;                                  ///< m, obstacles farther away are ignored
+  int path_count = 61;                                     ///< candidate directions of the PTG
+  double blocked_timeout = 15.0;                           ///< s without approaching the goal -> blocked
   double self_padding = 0.05;  ///< m: points within the shape grown by this are the robot's own body
 
   void validate() const;

@@ -76,8 +76,8 @@ private:
   std::mutex mutex_;  // the callbacks may run on several threads (a nodelet manager)
   std::vector<Source> sources_;
   ObstaclePoints points_;
-  long next_step_ = -1;           // lockstep: grid index of the next step (time = index / rate)
-  ros::WallTime waiting_since_;   // lockstep: when the pending step started waiting
+  long next_step_ = -1;          // lockstep: grid index of the next step (time = index / rate)
+  ros::WallTime waiting_since_;  // lockstep: when the pending step started waiting
   NavigationState published_state_ = NavigationState::Idle;
   bool state_published_ = false;
   // Diagnostics since the last report.
