@@ -33,9 +33,10 @@ CLOUDS = ["/camera_left/depth/points", "/camera_right/depth/points"]
 BODY = [[0.37, 0.24], [-0.37, 0.24], [-0.37, -0.24], [0.37, -0.24]]
 
 # The navigator's settings common to every mode (reactive_navigator/README.md: Parameters); the
-# limits are the simulated base's (0.6 m/s, 0.4 m/s^2) with a margin.
+# limits are the simulated base's (0.6 m/s, 0.4 m/s^2) with a margin. The navigator's goal
+# tolerance is below the simulator's 0.25 m: it stops on its odometry, which drifts.
 COMMON = {"lockstep": True, "control_rate": 10.0, "max_linear_speed": 0.5, "linear_acceleration": 0.4,
-          "max_angular_speed": 0.8, "goal_tolerance": 0.25, "odom_frame": "odom", "robot_frame": "base_link",
+          "max_angular_speed": 0.8, "goal_tolerance": 0.15, "odom_frame": "odom", "robot_frame": "base_link",
           "footprint": BODY, "shape_3d": [{"height": 0.60, "polygon": BODY}, {"height": 0.30, "polygon": BODY}]}
 
 
@@ -81,49 +82,61 @@ def _wait_published(master, topic, launch, timeout=60.0):
     raise RunError("the navigator did not start within %.0f s:\n%s" % (timeout, rosrun.log_tail(launch.log_path)))
 
 
+def _run_in(master, mode, points, route, workdir, seed, timeout_s, launches):
+    """The run's processes on `master` (each Launch appended to `launches`, which the caller
+    stops); returns (the simulator's result, the processes' CPU figures, the record's path)."""
+    import yaml
+    pipeline = None
+    if mode == "unified":
+        pipeline = rosrun.Launch(os.path.join(REPO, "launch", "pipeline.launch"),
+                                 ["config_dir:=" + pipeline_config(workdir)],
+                                 os.path.join(workdir, "pipeline.log")).start()
+        launches.append(pipeline)
+    cfg_path = os.path.join(workdir, "navigator.yaml")
+    with open(cfg_path, "w") as f:
+        yaml.safe_dump(navigator_config(mode), f)
+    navigator = rosrun.Launch(os.path.join(REPO, "reactive_navigator", "launch", "reactive_navigator.launch")
+                              if os.path.isdir(os.path.join(REPO, "reactive_navigator"))
+                              else _installed_launch(), ["name:=" + NAVIGATOR, "config:=" + cfg_path],
+                              os.path.join(workdir, "navigator.log")).start()
+    launches.append(navigator)
+    _wait_published(master.master, "/%s/step" % NAVIGATOR, navigator)
+    if pipeline is not None:
+        pipeline.wait_ready(master.master, settle=1.0)
+    nav_procs = [(n, p) for n, p in navigator.processes() if NAVIGATOR in n]
+    pipe_procs = pipeline.processes() if pipeline is not None else []
+    meter = rosrun.CpuMeter(nav_procs + pipe_procs)
+    wait = LIDARS[:1] + (CLOUDS[:1] if mode == "raw_3d" else [])
+    if mode == "unified":
+        wait = LIDARS[:1] + ["/camera_left/depth/image_rect", "/sonar_left/range"]
+    record_path = os.path.join(workdir, "run.json")
+    cmd = [sys.executable, os.path.join(REPO_SCRIPTS, "simulate_scenario"), "--closed-loop",
+           "--route", route, "--camera-points", str(points), "--seed", str(seed),
+           "--depth-output", "cloud" if mode == "raw_3d" else "image",
+           "--step-topic", "/%s/step" % NAVIGATOR, "--state-topic", "/%s/state" % NAVIGATOR,
+           "--timeout", str(timeout_s), "--no-progress", "--wait-for"] + wait + ["--record", record_path]
+    before = meter.snapshot()
+    with open(os.path.join(workdir, "simulator.log"), "w") as log:
+        sim = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT)
+    after = meter.snapshot()
+    # CPU seconds and memory while the processes still run; per simulated second below.
+    figures = meter.figures(before, after, 1.0)
+    navigator.raise_if_stopped("the navigator")
+    if pipeline is not None:
+        pipeline.raise_if_stopped()
+    return sim, figures, record_path
+
+
 def run_one(mode, points, route, workdir, seed=0, timeout_s=60.0):
     """One closed-loop run; returns (row of navigation.json, the simulator's run record)."""
-    import yaml
     os.makedirs(workdir, exist_ok=True)
     with rosrun.Master(os.path.join(workdir, "ros")) as master:
-        pipeline = None
-        if mode == "unified":
-            pipeline = rosrun.Launch(os.path.join(REPO, "launch", "pipeline.launch"),
-                                     ["config_dir:=" + pipeline_config(workdir)],
-                                     os.path.join(workdir, "pipeline.log")).start()
-        cfg_path = os.path.join(workdir, "navigator.yaml")
-        with open(cfg_path, "w") as f:
-            yaml.safe_dump(navigator_config(mode), f)
-        navigator = rosrun.Launch(os.path.join(REPO, "reactive_navigator", "launch", "reactive_navigator.launch")
-                                  if os.path.isdir(os.path.join(REPO, "reactive_navigator"))
-                                  else _installed_launch(), ["name:=" + NAVIGATOR, "config:=" + cfg_path],
-                                  os.path.join(workdir, "navigator.log")).start()
-        _wait_published(master.master, "/%s/step" % NAVIGATOR, navigator)
-        if pipeline is not None:
-            pipeline.wait_ready(master.master, settle=1.0)
-        nav_procs = [(n, p) for n, p in navigator.processes() if NAVIGATOR in n]
-        pipe_procs = pipeline.processes() if pipeline is not None else []
-        meter = rosrun.CpuMeter(nav_procs + pipe_procs)
-        wait = LIDARS[:1] + (CLOUDS[:1] if mode == "raw_3d" else [])
-        if mode == "unified":
-            wait = LIDARS[:1] + ["/camera_left/depth/image_rect", "/sonar_left/range"]
-        record_path = os.path.join(workdir, "run.json")
-        cmd = [sys.executable, os.path.join(REPO_SCRIPTS, "simulate_scenario"), "--closed-loop",
-               "--route", route, "--camera-points", str(points), "--seed", str(seed),
-               "--depth-output", "cloud" if mode == "raw_3d" else "image",
-               "--step-topic", "/%s/step" % NAVIGATOR, "--state-topic", "/%s/state" % NAVIGATOR,
-               "--timeout", str(timeout_s), "--no-progress", "--wait-for"] + wait + ["--record", record_path]
-        before = meter.snapshot()
-        with open(os.path.join(workdir, "simulator.log"), "w") as log:
-            sim = subprocess.run(cmd, stdout=log, stderr=subprocess.STDOUT)
-        after = meter.snapshot()
-        # CPU seconds and memory while the processes still run; per simulated second below.
-        figures = meter.figures(before, after, 1.0)
-        navigator.raise_if_stopped("the navigator")
-        if pipeline is not None:
-            pipeline.raise_if_stopped()
-            pipeline.stop()
-        navigator.stop()
+        launches = []
+        try:
+            sim, figures, record_path = _run_in(master, mode, points, route, workdir, seed, timeout_s, launches)
+        finally:  # also on SIGTERM (SystemExit) or an error: no process left behind
+            for launch in reversed(launches):
+                launch.stop()
     if sim.returncode != 0 or not os.path.exists(record_path):
         raise RunError("the simulator failed (exit %d):\n%s"
                        % (sim.returncode, rosrun.log_tail(os.path.join(workdir, "simulator.log"))))
