@@ -603,20 +603,24 @@ def parameter_table(readme, section, first_column="parameter", nth=0):
 
 
 def parse_default(cell):
-    if cell.startswith("(required"):
+    if cell.startswith("("):  # "(required ...)", "(the paper's robot)": no value of its own
         return None
     text = re.sub(r"\s*\(.*\)$", "", cell.replace("`", "")).strip()
     words = {"pi": math.pi, "-pi": -math.pi, "pi/720": math.pi / 720, "+inf": math.inf, ".inf": math.inf,
              "true": True, "false": False, '""': "", "[]": [], "absent": {}}
     if text in words:
         return words[text]
+    if text.startswith("[") and text.endswith("]"):
+        import yaml
+        return yaml.safe_load(text)
     try:
         return float(text)
     except ValueError:
         return text
 
 
-TYPES = {"float": "double", "int": "int", "whole": "int", "bool": "bool", "str": "string", "polygon": "list of `[x, y]`",
+TYPES = {"topic_list": "list of strings", "band": "[min, max]", "shape_levels": "list of {height, polygon}",
+         "float": "double", "int": "int", "whole": "int", "bool": "bool", "str": "string", "polygon": "list of `[x, y]`",
          "self_filter": "dict"}
 
 
@@ -625,6 +629,7 @@ TYPES = {"float": "double", "int": "int", "whole": "int", "bool": "bool", "str":
     ("depth_filter_scan_converter/README.md", "## range_scan_converter", "parameter", 0, "RANGE"),
     ("multi_laserscan_merger/README.md", "### Parameters", "parameter", 0, "MERGER"),
     ("multi_laserscan_merger/README.md", "### Parameters", "key", 0, "SOURCE"),
+    ("reactive_navigator/README.md", "## Parameters", "parameter", 0, "NAVIGATOR"),
 ])
 def test_parameter_tables_match_the_schema(readme, section, column, nth, schema):
     keys = getattr(config_schema(), schema)

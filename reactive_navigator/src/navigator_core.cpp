@@ -169,6 +169,17 @@ const Polygon* shapeAt(const NavigatorParameters& p, float z)
   return nullptr;
 }
 
+// MRPT's navigator reads its clock (mrpt::Clock::now()) to time its commands, e.g. where the robot
+// should be along the path of the last command when it decides to keep it: on the wall clock a
+// run would depend on the machine's load (identical inputs gave different commands in closed
+// loop). So its clock is the caller's: MRPT's simulated clock, set to the step's time. (A process
+// setting: the navigator is the only user of MRPT's clock in its process.)
+void useCallersClock(double time)
+{
+  mrpt::Clock::setSimulatedTime(mrpt::Clock::fromDouble(time));
+  mrpt::Clock::setActiveClock(mrpt::Clock::Simulated);
+}
+
 }  // namespace
 
 // The robot side of MRPT's navigator: answers its questions with the data of the current step
@@ -226,7 +237,7 @@ struct NavigatorCore::Impl : public mrpt::nav::CRobot2NavInterface
     cur_pose = mrpt::math::TPose2D(pose.x, pose.y, pose.yaw);
     odometry = cur_pose;
     cur_velocity = velocity;
-    // Pose and obstacles are of one instant: the same stamp, so that MRPT sees no delay.
+    // Pose and obstacles are of one instant, the step's: MRPT's clock (see useCallersClock).
     timestamp = mrpt::Clock::now();
     frame_id = "map";
     return true;
@@ -287,6 +298,8 @@ NavigatorCore::~NavigatorCore() = default;
 
 void NavigatorCore::setGoal(double x, double y)
 {
+  if (std::isfinite(impl_->previous_time))
+    useCallersClock(impl_->previous_time);
   if (impl_->navigator->getCurrentState() == mrpt::nav::CAbstractNavigator::NAV_ERROR)
     impl_->navigator->resetNavError();
   mrpt::nav::CAbstractPTGBasedReactive::TNavigationParamsPTG request;
@@ -304,6 +317,7 @@ void NavigatorCore::setGoal(double x, double y)
 Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints& obstacles)
 {
   Impl& d = *impl_;
+  useCallersClock(time);
   const double dt = time - d.previous_time;
   if (std::isfinite(dt) && dt > 0.0)
     d.velocity = mrpt::math::TTwist2D((pose.x - d.previous_pose.x) / dt, (pose.y - d.previous_pose.y) / dt,

@@ -2,6 +2,7 @@
 // exact kinematics) among obstacles given as world points, seen from the robot at every step.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 
 #include "reactive_navigator/navigator_core.hpp"
@@ -22,15 +23,19 @@ struct DriveResult
 
 // Drives the robot from (0, 0, 0) to the goal among the world points for at most `duration` s.
 DriveResult drive(const NavigatorParameters& p, const ObstaclePoints& world, double goal_x, double goal_y,
-                  double duration = 30.0)
+                  double duration = 30.0, double wall_pause_s = 0.0)
 {
   NavigatorCore core(p);
   core.setGoal(goal_x, goal_y);
   DriveResult run;
   Pose2 pose;
   ObstaclePoints seen;
-  for (double t = 0.0; t < duration; t += kStep)
+  for (double t = 1.0; t < 1.0 + duration; t += kStep)
   {
+    // A perturbation of the wall clock between steps (not a wait): the run must not change.
+    for (const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(wall_pause_s);
+         std::chrono::steady_clock::now() < until;)
+    {}
     seen.clear();
     const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
     for (const auto& w : world)
@@ -175,7 +180,7 @@ TEST(NavigatorCore, PointsOnItsOwnBodyAreDroppedAndDoNotHoldItBack)
     };
     Command c;
     for (int i = 0; i < 5; ++i)
-      c = core.step(0.1 * i, Pose2{}, points);
+      c = core.step(1.0 + 0.1 * i, Pose2{}, points);
     EXPECT_EQ(core.lastSelfPoints(), 3u) << mode;
     EXPECT_EQ(core.lastObstaclePoints(), 1u) << mode;
     EXPECT_GT(c.vx, 0.1) << mode;
@@ -185,7 +190,7 @@ TEST(NavigatorCore, PointsOnItsOwnBodyAreDroppedAndDoNotHoldItBack)
 TEST(NavigatorCore, IdleWithoutAGoal)
 {
   NavigatorCore core(NavigatorParameters{});
-  const Command c = core.step(0.0, Pose2{}, {});
+  const Command c = core.step(1.0, Pose2{}, {});
   EXPECT_EQ(core.state(), NavigationState::Idle);
   EXPECT_EQ(c.vx, 0.0);
   EXPECT_EQ(c.vy, 0.0);
@@ -198,8 +203,9 @@ TEST(NavigatorCore, SameInputsGiveTheSameRun)
   ObstaclePoints wall;
   addWallAlongY(wall, 2.0, -6.0, -0.15);
   addWallAlongY(wall, 2.0, 1.15, 6.0);
+  // The second run's steps come 0 - 20 ms of wall time later each: MRPT must not see it.
   const DriveResult a = drive(p, wall, 4.0, 0.0);
-  const DriveResult b = drive(p, wall, 4.0, 0.0);
+  const DriveResult b = drive(p, wall, 4.0, 0.0, 30.0, 0.02);
   ASSERT_EQ(a.path.size(), b.path.size());
   for (std::size_t i = 0; i < a.path.size(); ++i)
   {

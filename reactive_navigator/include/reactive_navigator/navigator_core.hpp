@@ -53,7 +53,9 @@ public:
 
   /// A new goal (odometry frame); replaces any former one.
   void setGoal(double x, double y);
-  /// One control step at `time` (s, increasing): the robot's pose then and the obstacles seen.
+  /// One control step at `time` (s, > 0 and increasing; MRPT's clock is set to it, so that the
+  /// same inputs give the same commands whatever the load): the robot's pose then and the
+  /// obstacles seen.
   /// Points inside the robot's own shape (grown by self_padding) are dropped first: they are its
   /// body (a corner lidar sees it; REP 117's -Inf beams where the body hides the view become
   /// points at range_min, inside it), and MRPT would take them as a collision and never move.

@@ -71,15 +71,15 @@ def pipeline_config(workdir):
 
 
 def _wait_published(master, topic, launch, timeout=60.0):
-    """Waits (wall time) until `topic` has a publisher: the navigator advertises its topics once
-    MRPT's navigator is built."""
+    """Waits (wall time) until `topic` has a publisher (the navigator advertises its topics once
+    MRPT's navigator is built; the pipeline's /merged_scan comes with its last nodelet)."""
     deadline = time.time() + timeout
     while time.time() < deadline:
-        launch.raise_if_stopped("the navigator")
+        launch.raise_if_stopped("the launch of %s" % topic)
         if any(t == topic and nodes for t, nodes in master.getSystemState()[0]):
             return
         time.sleep(0.1)
-    raise RunError("the navigator did not start within %.0f s:\n%s" % (timeout, rosrun.log_tail(launch.log_path)))
+    raise RunError("no publisher of %s within %.0f s:\n%s" % (topic, timeout, rosrun.log_tail(launch.log_path)))
 
 
 def _run_in(master, mode, points, route, workdir, seed, timeout_s, launches):
@@ -101,7 +101,8 @@ def _run_in(master, mode, points, route, workdir, seed, timeout_s, launches):
                               os.path.join(workdir, "navigator.log")).start()
     launches.append(navigator)
     _wait_published(master.master, "/%s/step" % NAVIGATOR, navigator)
-    if pipeline is not None:
+    if pipeline is not None:  # every nodelet loaded: the last one's output is advertised
+        _wait_published(master.master, "/merged_scan", pipeline)
         pipeline.wait_ready(master.master, settle=1.0)
     nav_procs = [(n, p) for n, p in navigator.processes() if NAVIGATOR in n]
     pipe_procs = pipeline.processes() if pipeline is not None else []
@@ -154,7 +155,8 @@ def run_one(mode, points, route, workdir, seed=0, timeout_s=60.0):
            "system_cpu_percent": sum(v["cpu_seconds"] for v in figures.values()) * per_simulated_s,
            "navigator_memory_mb": nav[0].get("peak_rss_mb", nav[0]["rss_mb"]),
            "simulated_s": record["simulated_s"], "lockstep_timeouts": record.get("lockstep_timeouts", 0),
-           "collided_with": record.get("collided_with", []), "wall_s": record.get("wall_s")}
+           "collided_with": record.get("collided_with", []), "wall_s": record.get("wall_s"),
+           "process_cpu_percent": {k: v["cpu_seconds"] * per_simulated_s for k, v in figures.items()}}
     return row, record
 
 
