@@ -62,6 +62,8 @@ COMMANDS = {
     "scripts/evaluate_bag test/data/real/dual_lidar_scans_demo.bag --launch launch/dual_lidar_demo.launch "
     "--output /tmp/dual --rate 2": "test/test_end_to_end.py",
     "scripts/cpu_experiment --quick --output /tmp/cpu_quick": "scripts/demo",
+    "scripts/navigation_experiment --output /tmp/navigation --quick": "scripts/demo",
+    "scripts/navigation_experiment --output /tmp/navigation": CHECKED,  # the whole sweep: hours
     "scripts/cpu_experiment --duration 4 --output /tmp/cpu": CHECKED,
     "scripts/octomap_comparison --quick --output /tmp/octomap_quick": CHECKED,  # minutes
     "scripts/octomap_comparison --output /tmp/octomap": CHECKED,  # about 40 minutes
