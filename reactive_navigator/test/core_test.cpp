@@ -214,19 +214,23 @@ TEST(NavigatorCore, SameInputsGiveTheSameRun)
   }
 }
 
+// validate() throws ParameterError naming `name`.
+template <class Parameters>
+void expectError(const Parameters& p, const std::string& name)
+{
+  try
+  {
+    p.validate();
+    ADD_FAILURE() << "no error for " << name;
+  }
+  catch (const ParameterError& e)
+  {
+    EXPECT_EQ(e.parameter(), name);
+  }
+}
+
 TEST(Parameters, EachBadValueNamesItsParameter)
 {
-  auto expectError = [](const NavigatorParameters& p, const std::string& name) {
-    try
-    {
-      p.validate();
-      ADD_FAILURE() << "no error for " << name;
-    }
-    catch (const ParameterError& e)
-    {
-      EXPECT_EQ(e.parameter(), name);
-    }
-  };
   NavigatorParameters p;
   p.mode = "2.5d";
   expectError(p, "mode");
@@ -270,39 +274,28 @@ TEST(Parameters, EachBadValueNamesItsParameter)
   p.self_padding = -0.1;
   expectError(p, "self_padding");
 
-  auto expectNodeError = [](const NodeParameters& n, const std::string& name) {
-    try
-    {
-      n.validate();
-      ADD_FAILURE() << "no error for " << name;
-    }
-    catch (const ParameterError& e)
-    {
-      EXPECT_EQ(e.parameter(), name);
-    }
-  };
   NodeParameters n;
-  expectNodeError(n, "scan_topics");
+  expectError(n, "scan_topics");
   n.scan_topics = { "a", "a" };
-  expectNodeError(n, "scan_topics");
+  expectError(n, "scan_topics");
   n.scan_topics = { "a" };
   n.cloud_topics = { "" };
-  expectNodeError(n, "cloud_topics");
+  expectError(n, "cloud_topics");
   n.cloud_topics = {};
   n.odom_frame = "";
-  expectNodeError(n, "odom_frame");
+  expectError(n, "odom_frame");
   n.odom_frame = "odom";
   n.robot_frame = "odom";
-  expectNodeError(n, "robot_frame");
+  expectError(n, "robot_frame");
   n.robot_frame = "base_link";
   n.height_band_min = 1.0;
-  expectNodeError(n, "height_band");
+  expectError(n, "height_band");
   n.height_band_min = 0.05;
   n.control_rate = 0.0;
-  expectNodeError(n, "control_rate");
+  expectError(n, "control_rate");
   n.control_rate = 10.0;
   n.lockstep_timeout = -1.0;
-  expectNodeError(n, "lockstep_timeout");
+  expectError(n, "lockstep_timeout");
   n.lockstep_timeout = 5.0;
   EXPECT_NO_THROW(n.validate());
 }
