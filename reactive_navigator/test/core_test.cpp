@@ -335,3 +335,9 @@ TEST(ObstaclePoints, CloudPointsAreTransformedAndKeptInTheBand)
 
 }  // namespace
 }  // namespace reactive_navigator
+
+int main(int argc, char** argv)
+{
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
