@@ -178,6 +178,18 @@ def test_driving_under_the_table_counts_a_3d_collision_and_the_record_round_trip
     assert np.allclose(pts[..., 2][depth > 0], depth[depth > 0])
 
 
+def test_the_table_route_is_free_at_the_lidars_height_and_blocked_under_the_arm():
+    # A navigator taking the robot as its circumscribed circle (0.44 m) must see room at the
+    # lidars' height (0.20 m) along the straight path, 1 m wide; its height band sees the top.
+    world = cl.closed_loop_world()
+    (x0, y0), (x1, _) = cl.ROUTES["table"]
+    for dy in np.linspace(-0.5, 0.5, 21):
+        ahead = world.band_scan((x0, y0 + dy), [0.0], 0.2, 0.2, 0.0, static_only=True)[0]
+        assert ahead > x1 - x0
+    top = world.band_scan((x0, y0), [0.0], 0.0, 0.9, 0.0, static_only=True)[0]
+    assert top == pytest.approx(9.0 - 0.6 - x0)  # table2's top, 1.2 m long, centred at x = 9.0
+
+
 def test_a_bad_configuration_names_its_field():
     with pytest.raises(ValueError, match="route"):
         cl.ClosedLoopSim(cl.ClosedLoopConfig(route="moon"))

@@ -19,10 +19,12 @@ STEP = "/fake_navigator/step"
 STATE = "/fake_navigator/state"
 
 
-def fake_navigator(log_path):
+def fake_navigator(log_path, stop_at=None, block_at=None):
     """The scripted navigator (run as its own process): on every lidar_front scan (stamped t_k,
     sensors at the control rate) it answers step t_k with vx = 0.4 * (the scan's median finite
-    range / 6 m, at most 1), vy = 0.05, w = 0.1 once it has a goal, else zero. Logs what it saw."""
+    range / 6 m, at most 1), vy = 0.05, w = 0.1 once it has a goal, else zero; from ROS time
+    ``stop_at`` on it answers nothing (a stuck navigator), from ``block_at`` on it answers zero
+    and says "blocked". Logs what it saw."""
     import numpy as np
     import rospy
     from geometry_msgs.msg import PoseStamped, TwistStamped
@@ -40,11 +42,15 @@ def fake_navigator(log_path):
         state.publish(String(data="navigating"))
 
     def on_scan(msg):
+        if stop_at is not None and msg.header.stamp.to_sec() >= stop_at:
+            return
         r = np.asarray(msg.ranges)
         r = r[np.isfinite(r)]
         out = TwistStamped()
         out.header.stamp = msg.header.stamp
-        if seen["goal"] is not None:
+        if block_at is not None and msg.header.stamp.to_sec() >= block_at:
+            state.publish(String(data="blocked"))
+        elif seen["goal"] is not None:
             out.twist.linear.x = 0.4 * min(1.0, float(np.median(r)) / 6.0)
             out.twist.linear.y, out.twist.angular.z = 0.05, 0.1
         seen["scans"].append(msg.header.stamp.to_nsec())
@@ -83,10 +89,15 @@ def _run(tmp_path, label, seed):
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
+def master(tmp_path_factory):
+    with rosrun.Master(str(tmp_path_factory.mktemp("closed_loop_ros"))) as m:
+        yield m
+
+
+@pytest.fixture(scope="module")
+def runs(master, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("closed_loop")
-    with rosrun.Master(str(tmp / "ros")):
-        return [_run(tmp, "a", 4), _run(tmp, "b", 4)]
+    return [_run(tmp, "a", 4), _run(tmp, "b", 4)]
 
 
 def test_the_clock_and_every_stamp_are_on_the_step_grid_and_every_step_is_answered(runs):
@@ -123,5 +134,43 @@ def test_the_same_seed_gives_the_same_run(runs):
     assert {k: v for k, v in a.items() if k != "wall_s"} == {k: v for k, v in b.items() if k != "wall_s"}
 
 
+def test_the_run_ends_when_the_navigator_is_blocked(master, tmp_path):
+    nav = subprocess.Popen([sys.executable, __file__, "--fake-navigator", str(tmp_path / "nav.json"),
+                            "2000", "1001.0"], start_new_session=True)
+    try:
+        out = subprocess.run(
+            [sys.executable, os.path.join(SCRIPTS, "simulate_scenario"), "--closed-loop",
+             "--camera-points", "2000", "--step-topic", STEP, "--state-topic", STATE, "--wait-for",
+             "/lidar_front/scan", "--goal-delay", "0.5", "--record", str(tmp_path / "run.json")],
+            capture_output=True, text=True, timeout=60)
+    finally:
+        rosrun.stop_process(nav)
+    assert out.returncode == 0, out.stderr
+    with open(tmp_path / "run.json") as f:
+        rec = json.load(f)
+    # Blocked from step 1.0 s on: the run ends there (or one step later: the state is its own
+    # topic), not after the 90 s timeout.
+    assert rec["navigator_state"] == "blocked" and not rec["timed_out"] and not rec["reached"]
+    assert rec["simulated_s"] in (pytest.approx(1.0), pytest.approx(1.1))
+    assert rec["trajectory"][-1][0] == pytest.approx(rec["simulated_s"])
+
+
+def test_a_navigator_that_stops_answering_ends_the_run_with_exit_3(master, tmp_path):
+    nav = subprocess.Popen([sys.executable, __file__, "--fake-navigator", str(tmp_path / "nav.json"),
+                            "1000.3"], start_new_session=True)
+    try:
+        out = subprocess.run(
+            [sys.executable, os.path.join(SCRIPTS, "simulate_scenario"), "--closed-loop",
+             "--camera-points", "2000", "--step-topic", STEP, "--wait-for", "/lidar_front/scan",
+             "--lockstep-timeout", "0.2", "--record", str(tmp_path / "run.json")],
+            capture_output=True, text=True, timeout=60)
+    finally:
+        rosrun.stop_process(nav)
+    assert out.returncode == 3, out.stderr
+    assert "stopped answering %s (t = 1000.500, 3 steps in a row" % STEP in out.stderr
+    assert out.stderr.count("no %s for t = " % STEP) == 3  # 1000.3, .4, .5 waited for, then given up
+    assert not (tmp_path / "run.json").exists()
+
+
 if __name__ == "__main__" and sys.argv[1:2] == ["--fake-navigator"]:
-    fake_navigator(sys.argv[2])
+    fake_navigator(sys.argv[2], *(float(a) for a in sys.argv[3:]))

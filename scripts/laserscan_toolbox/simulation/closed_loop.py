@@ -34,13 +34,13 @@ import numpy as np
 from . import raycast
 from .robot import Arm, WheelOdometry, paper_robot
 from .scenario import DEFAULT_START_TIME, Scenario
-from .world import shop_floor
+from .world import World, _table, shop_floor
 
-#: Routes of the closed loop: start and goal (x, y) in map; the robot starts facing the goal.
-#: ``shop``: the paper's task, A to B past chairs and tables, along a shelf whose boards overhang
-#: its plinth, among the walking people.  ``table``: the straight path runs under table2's top
-#: between its legs (0.64 m apart, the base 0.48 m wide and 0.60 m high fits under the 0.71 m
-#: top, the stowed arm up to 0.90 m does not).
+#: Routes of the closed loop (in ``closed_loop_world``): start and goal (x, y) in map; the robot
+#: starts facing the goal.  ``shop``: the paper's task, A to B past chairs and tables, along a shelf
+#: whose boards overhang its plinth, among the walking people.  ``table``: the straight path runs
+#: under table2's top between its legs (1.24 m apart: the base 0.48 m wide and 0.60 m high fits
+#: under the 0.71 m top, the stowed arm up to 0.90 m does not).
 ROUTES = {
     "shop": ((3.6, 5.0), (14.2, 5.6)),
     "table": ((6.3, 8.8), (11.8, 8.8)),
@@ -120,6 +120,7 @@ class RunRecord:
     path_length_m: float = 0.0
     min_clearance_m: float = math.inf
     timed_out: bool = False
+    navigator_state: Optional[str] = None  # "reached" | "blocked": the navigator ended the run
     simulated_s: float = 0.0             # clock advanced from the start to the end (warm-up included)
     goal_delay_s: float = 0.0
     lockstep_timeouts: int = 0           # control steps the navigator did not answer in time
@@ -334,6 +335,19 @@ def closed_loop_robot(config):
     return robot
 
 
+def closed_loop_world():
+    """The shop floor of the closed loop: the bag's (``world.shop_floor``) with table2 a wide table
+    (1.2 m along the aisle, 1.4 m across: legs 1.24 m apart) and chair2 gone.  A navigator's
+    holonomic trajectories (MRPT's CPTG_Holo_Blend) take the robot as its circumscribed circle,
+    0.44 m in radius: a navigator that sees only the legs must find the gap between them wide
+    enough to try it, for the route under the top to show what it misses."""
+    w = shop_floor()
+    boxes = [b for b in w.boxes if not b.name.startswith(("table2/", "chair2/"))]
+    boxes += _table("table2", 9.0, 8.8, width=1.4)
+    return World(bounds=w.bounds, ceiling=w.ceiling, boxes=boxes, cylinders=w.cylinders, holes=w.holes,
+                 people=w.people, glass=w.glass)
+
+
 class ClosedLoopSim:
     def __init__(self, config):
         config.validate()
@@ -342,7 +356,8 @@ class ClosedLoopSim:
         start, goal = config.endpoints()
         yaw0 = math.atan2(goal[1] - start[1], goal[0] - start[0])
         # The scenario gives the world, the sensor models and the messages; its own route is unused.
-        self.scenario = Scenario(shop_floor(), self.robot, [start, goal], duration=1.0, seed=config.seed)
+        self.scenario = Scenario(closed_loop_world(), self.robot, [start, goal], duration=1.0,
+                                 seed=config.seed)
         self.world = self.scenario.world
         self.goal = (float(goal[0]), float(goal[1]), yaw0)
         self.base = OmniBase(self.robot, start[0], start[1], yaw0)
@@ -436,6 +451,13 @@ class ClosedLoopSim:
         rec.simulated_s = rel
         if self.done:  # the trajectory ends where the run did
             rec.trajectory.append((rel,) + tuple(float(v) for v in self.pose))
+
+    def end(self, navigator_state):
+        """End the run at the current step: the navigator stopped for good (its state
+        ``reached`` or ``blocked``), so the rest would only be the timeout's wait."""
+        self.done = True
+        self.run_record.navigator_state = navigator_state
+        self.run_record.trajectory.append((self.rel,) + tuple(float(v) for v in self.pose))
 
     def record(self):
         rec = self.run_record

@@ -12,15 +12,20 @@ t_k until the navigator's ``~step`` (geometry_msgs/TwistStamped) stamped t_k cam
 drives the base over [t_k, t_k+1).  Without one: free running at wall pace from ``cmd_vel``.
 """
 import math
+import sys
 import threading
 import time
 
 
-from .closed_loop import NS, ClosedLoopSim, depth_points
+from .closed_loop import ClosedLoopSim, depth_points
 from .scenario import FRAMES, TOPICS, stamped
 
 DEPTH_OUTPUTS = ("image", "cloud", "both")
 GOAL_TOPIC = "move_base_simple/goal"
+#: The navigator's ~state values after which it does not move again (the run ends there).
+FINAL_STATES = ("reached", "blocked")
+#: Control steps in a row without the navigator's answer after which the run is abandoned.
+MAX_MISSED_STEPS = 3
 
 
 class _Answers:
@@ -92,11 +97,12 @@ def _map_to_odom(truth, odom):
 
 
 def run(config, depth_output="image", step_topic=None, state_topic=None, wait_for=(),
-        lockstep_timeout=30.0, state_timeout=5.0, start_timeout=60.0, log=print):
+        lockstep_timeout=30.0, state_timeout=5.0, start_timeout=60.0, log=None):
     """Run one closed-loop episode on the ROS master of ROS_MASTER_URI; returns its RunRecord.
 
     wait_for: topics that must have a subscriber before the clock starts (the pipeline's or the
-    navigator's inputs), beside the step topic's publisher."""
+    navigator's inputs), beside the step topic's publisher.  log: where warnings go (stderr).
+    RuntimeError: the navigator did not come, or stopped answering (MAX_MISSED_STEPS)."""
     import rospy
     from geometry_msgs.msg import PoseStamped, Twist, TwistStamped
     from nav_msgs.msg import Odometry
@@ -107,6 +113,9 @@ def run(config, depth_output="image", step_topic=None, state_topic=None, wait_fo
     from ..ros import bagio
     from .robot import quat_from_yaw
 
+    if log is None:
+        def log(text):
+            print(text, file=sys.stderr, flush=True)
     if depth_output not in DEPTH_OUTPUTS:
         raise ValueError(f"depth_output: {depth_output!r} is not one of {', '.join(DEPTH_OUTPUTS)}")
     sim = ClosedLoopSim(config)
@@ -161,6 +170,7 @@ def run(config, depth_output="image", step_topic=None, state_topic=None, wait_fo
             raise RuntimeError(f"no publisher of {step_topic} within {start_timeout} s")
 
     wall0 = time.monotonic()
+    missed = 0  # control steps in a row without an answer
     while not sim.done and not rospy.is_shutdown():
         frame = sim.sense()
         t = stamp(frame.t_ns)
@@ -205,14 +215,26 @@ def run(config, depth_output="image", step_topic=None, state_topic=None, wait_fo
                     sim.command(*answers.step_at(frame.t_ns))
                     with answers.cond:  # answers of past steps are not needed again
                         answers.steps = {s: v for s, v in answers.steps.items() if s > frame.t_ns + 1000}
+                    missed = 0
                 else:
                     sim.run_record.lockstep_timeouts += 1
+                    missed += 1
                     log(f"closed loop: no {step_topic} for t = {frame.t:.3f} within {lockstep_timeout} "
                         "s wall; the command is held (the run is no longer repeatable)")
+                    # A navigator that is gone or stuck would hold the run for hours: give up.
+                    if subs[1].get_num_connections() == 0 or missed >= MAX_MISSED_STEPS:
+                        raise RuntimeError(f"the navigator stopped answering {step_topic} (t = "
+                                           f"{frame.t:.3f}, {missed} steps in a row, publishers "
+                                           f"{subs[1].get_num_connections()})")
             else:
                 sim.command(*answers.cmd_vel)
         if not step_topic:  # free running: simulated time at wall pace
             time.sleep(max(0.0, wall0 + frame.rel - time.monotonic()))
+        if frame.control and sim.k > sim.goal_step and answers.state in FINAL_STATES:
+            # The navigator has stopped for good: its robot stands still until the timeout. (Its
+            # state comes apart from ~step: the run may end one control step later or sooner.)
+            sim.end(answers.state)
+            break
         sim.advance()
     clock.publish(Clock(clock=stamp(sim.t_ns)))
     rec = sim.record()

@@ -463,8 +463,9 @@ class WheelOdometry:
             ds = ds * self.scale_v + rng.normal(0.0, noise.noise_v * abs(ds))
             if lateral != 0.0:
                 lateral = lateral * self.scale_v + rng.normal(0.0, noise.noise_v * abs(lateral))
+            dist = math.hypot(ds, lateral)  # as measured (noise included)
             dth = (dth * self.scale_w + noise.bias_w * dt
-                   + rng.normal(0.0, noise.noise_w * abs(dth) + noise.noise_w_per_m * math.hypot(ds, lateral)))
+                   + rng.normal(0.0, noise.noise_w * abs(dth) + noise.noise_w_per_m * dist))
         else:
             ds = dth = lateral = 0.0
         mid = self.yaw + 0.5 * dth
