@@ -112,6 +112,7 @@ double cpuSeconds()
 
 constexpr double kStampEpsilon = 1e-6;  // s: stamps this close to a step's time count as that time
 constexpr std::size_t kKeptMessages = 8;
+constexpr double kGoalTransformWait = 2.0;  // wall s a goal waits for its transform
 
 }  // namespace
 
@@ -229,28 +230,54 @@ void ReactiveNavigatorRos::goalArrived(const geometry_msgs::PoseStamped::ConstPt
     warn("goal", "goal ignored: its pose is not finite");
     return;
   }
-  const std::string frame = laserscan_common::tf2FrameId(goal->header.frame_id);
+  // Its transform may not be in yet (the /tf of its stamp travels on another connection): the
+  // goal is taken now if it can be, else at the next steps (tryPendingGoal).
+  pending_goal_ = goal;
+  pending_since_ = ros::WallTime::now();
+  if (!tryPendingGoal(false))
+  {
+    // Say so at once all the same: a simulator waits for the state before the goal's first step.
+    std_msgs::String message;
+    message.data = stateName(NavigationState::Navigating);
+    state_pub_.publish(message);
+    published_state_ = NavigationState::Navigating;
+  }
+}
+
+bool ReactiveNavigatorRos::tryPendingGoal(bool give_up_when_late)
+{
+  if (!pending_goal_)
+    return false;
+  const auto& goal = *pending_goal_;
+  const std::string frame = laserscan_common::tf2FrameId(goal.header.frame_id);
+  const auto& p = goal.pose.position;
   Eigen::Vector3d in_odom(p.x, p.y, p.z);
   if (frame != parameters_.odom_frame)
   {
     try
     {
       // At the goal's stamp; a zero stamp means "the latest transform".
-      const auto t =
-        tf_buffer_.lookupTransform(parameters_.odom_frame, frame.empty() ? "?" : frame, goal->header.stamp);
+      const auto t = tf_buffer_.lookupTransform(parameters_.odom_frame, frame.empty() ? "?" : frame, goal.header.stamp);
       in_odom = tf2::transformToEigen(t) * in_odom;
     }
     catch (const std::exception& e)
     {
-      warn("goal", std::string("goal ignored: no transform from its frame '") + frame + "' to '" +
-                     parameters_.odom_frame + "': " + e.what());
-      return;
+      if (give_up_when_late && (ros::WallTime::now() - pending_since_).toSec() > kGoalTransformWait)
+      {
+        warn("goal", std::string("goal ignored: no transform from its frame '") + frame + "' to '" +
+                       parameters_.odom_frame + "' within " + std::to_string(kGoalTransformWait) + " s: " + e.what());
+        pending_goal_.reset();
+        publishState();  // back to what the core says
+      }
+      return false;
     }
   }
+  pending_goal_.reset();
   core_->setGoal(in_odom.x(), in_odom.y());
   publishState();  // at once: a simulator waits for it before the goal's first step
   ROS_INFO("%s: new goal (%.2f, %.2f) in '%s'", ros::this_node::getName().c_str(), in_odom.x(), in_odom.y(),
            parameters_.odom_frame.c_str());
+  return true;
 }
 
 void ReactiveNavigatorRos::scanArrived(std::size_t index, const sensor_msgs::LaserScan::ConstPtr& scan)
@@ -454,6 +481,7 @@ void ReactiveNavigatorRos::runStep(const ros::Time& time, bool latest_pose)
   const double cpu_start = cpuSeconds();
   Command command;
   Pose2 pose;
+  tryPendingGoal(true);
   if (poseAt(time, latest_pose, pose))
   {
     collectObstacles(time, !latest_pose);

@@ -45,6 +45,7 @@ private:
   };
 
   void goalArrived(const geometry_msgs::PoseStamped::ConstPtr& goal);
+  bool tryPendingGoal(bool give_up_when_late);  // true when it became the core's goal
   void scanArrived(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& scan);
   void cloudArrived(std::size_t source, const sensor_msgs::PointCloud2::ConstPtr& cloud);
   void timerStep(const ros::TimerEvent& event);
@@ -75,6 +76,8 @@ private:
 
   std::mutex mutex_;  // the callbacks may run on several threads (a nodelet manager)
   std::vector<Source> sources_;
+  geometry_msgs::PoseStamped::ConstPtr pending_goal_;  // waiting for its transform
+  ros::WallTime pending_since_;
   ObstaclePoints points_;
   long next_step_ = -1;          // lockstep: grid index of the next step (time = index / rate)
   ros::WallTime waiting_since_;  // lockstep: when the pending step started waiting

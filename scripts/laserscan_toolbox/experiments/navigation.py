@@ -36,7 +36,7 @@ BODY = [[0.37, 0.24], [-0.37, 0.24], [-0.37, -0.24], [0.37, -0.24]]
 # limits are the simulated base's (0.6 m/s, 0.4 m/s^2) with a margin. The navigator's goal
 # tolerance is below the simulator's 0.25 m: it stops on its odometry, which drifts.
 COMMON = {"lockstep": True, "control_rate": 10.0, "max_linear_speed": 0.5, "linear_acceleration": 0.4,
-          "max_angular_speed": 0.8, "goal_tolerance": 0.15, "odom_frame": "odom", "robot_frame": "base_link",
+          "max_angular_speed": 0.8, "goal_tolerance": 0.10, "odom_frame": "odom", "robot_frame": "base_link",
           "footprint": BODY, "shape_3d": [{"height": 0.60, "polygon": BODY}, {"height": 0.30, "polygon": BODY}]}
 
 
