@@ -37,6 +37,7 @@ def test_the_readme_lists_every_navigator_parameter():
                                                    "shape_3d[0].height"),
     ("max_linear_speed", 0, "max_linear_speed"), ("path_count", 2, "path_count"), ("lockstep", 1, "lockstep"),
     ("self_padding", -0.1, "self_padding"), ("control_rate", float("inf"), "control_rate"),
+    ("obstacle_memory", -1.0, "obstacle_memory"),
 ])
 def test_check_config_names_each_bad_navigator_value(key, value, says):
     params = {"scan_topics": ["merged_scan"], key: value}

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <unordered_map>
 
 #include <mrpt/config/CConfigFileMemory.h>
 #include <mrpt/kinematics/CVehicleVelCmd_Holo.h>
@@ -39,6 +40,19 @@ namespace
 
 constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr double kProgress = 0.1;  // m closer to the goal that counts as progress
+// The obstacle memory's cell (m): fine against the robot's 0.05 m secure distance, and coarse
+// enough that raw 3D at 300k points per camera keeps tens of thousands of cells, not millions.
+constexpr double kMemoryCell = 0.05;
+
+// A cell's key: 21 bits per axis (+-52 km at 5 cm), the height 0 in 2d mode (a floor plan).
+std::int64_t memoryKey(const Eigen::Vector3f& odom_point, bool volumetric)
+{
+  const auto index = [](float v) {
+    return (static_cast<std::int64_t>(std::floor(v / kMemoryCell)) + (1 << 20)) & ((1 << 21) - 1);
+  };
+  const std::int64_t z = volumetric ? index(odom_point.z()) : 0;
+  return (index(odom_point.x()) << 42) | (index(odom_point.y()) << 21) | z;
+}
 
 double circumradius(const Polygon& polygon)
 {
@@ -197,6 +211,57 @@ struct NavigatorCore::Impl : public mrpt::nav::CRobot2NavInterface
   mrpt::math::TTwist2D velocity{ 0.0, 0.0, 0.0 };  // odometry frame, from successive poses
   ObstaclePoints obstacles;                        // the step's points without the robot's own body
   std::size_t self_points = 0;
+  std::size_t remembered_points = 0;
+
+  // obstacle_memory: per cell, the newest point seen in it (odometry frame) and when.
+  struct Remembered
+  {
+    Eigen::Vector3f point;
+    double time;
+  };
+  std::unordered_map<std::int64_t, Remembered> memory;
+
+  bool isOwnBody(const Eigen::Vector3f& point) const
+  {
+    const Polygon* shape = shapeAt(parameters, point.z());
+    return shape != nullptr && insideGrown(*shape, point.x(), point.y(), parameters.self_padding);
+  }
+
+  // Stores the step's points (robot frame, own body dropped) and appends the remembered ones not
+  // seen again this step, brought into the robot frame at `pose`; forgets what is too old or
+  // beyond the look-ahead. A remembered point now inside the robot's shape (the robot drove
+  // where a person stood) is not handed on: MRPT would take it for a collision.
+  void remember(double now)
+  {
+    const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
+    const bool volumetric = parameters.volumetric();
+    for (const auto& p : obstacles)
+    {
+      const Eigen::Vector3f odom(static_cast<float>(pose.x + c * p.x() - s * p.y()),
+                                 static_cast<float>(pose.y + s * p.x() + c * p.y()), p.z());
+      memory[memoryKey(odom, volumetric)] = Remembered{ odom, now };
+    }
+    const std::size_t seen = obstacles.size();
+    const double reach2 = parameters.lookahead * parameters.lookahead;
+    for (auto it = memory.begin(); it != memory.end();)
+    {
+      const double dx = it->second.point.x() - pose.x, dy = it->second.point.y() - pose.y;
+      if (now - it->second.time > parameters.obstacle_memory || dx * dx + dy * dy > reach2)
+      {
+        it = memory.erase(it);
+        continue;
+      }
+      if (it->second.time < now)
+      {
+        const Eigen::Vector3f robot(static_cast<float>(c * dx + s * dy), static_cast<float>(-s * dx + c * dy),
+                                    it->second.point.z());
+        if (!isOwnBody(robot))
+          obstacles.push_back(robot);
+      }
+      ++it;
+    }
+    remembered_points = obstacles.size() - seen;
+  }
 
   // The held command: speed along a direction fixed in the odometry frame (CPTG_Holo_Blend's
   // paths keep their heading while the robot turns) and the turn rate.
@@ -328,14 +393,16 @@ Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints
   d.pose = pose;
   d.obstacles.clear();
   d.self_points = 0;
+  d.remembered_points = 0;
   for (const auto& point : obstacles)
   {
-    const Polygon* shape = shapeAt(d.parameters, point.z());
-    if (shape != nullptr && insideGrown(*shape, point.x(), point.y(), d.parameters.self_padding))
+    if (d.isOwnBody(point))
       ++d.self_points;
     else
       d.obstacles.push_back(point);
   }
+  if (d.parameters.obstacle_memory > 0.0)
+    d.remember(time);
 
   if (d.state == NavigationState::Navigating)
   {
@@ -375,6 +442,10 @@ std::size_t NavigatorCore::lastObstaclePoints() const
 std::size_t NavigatorCore::lastSelfPoints() const
 {
   return impl_->self_points;
+}
+std::size_t NavigatorCore::lastRememberedPoints() const
+{
+  return impl_->remembered_points;
 }
 const NavigatorParameters& NavigatorCore::parameters() const
 {

@@ -79,6 +79,8 @@ void NavigatorParameters::validate() const
   requirePositive("blocked_timeout", blocked_timeout);
   if (!std::isfinite(self_padding) || self_padding < 0.0)
     throw ParameterError("self_padding", "must be a finite number >= 0");
+  if (!std::isfinite(obstacle_memory) || obstacle_memory < 0.0)
+    throw ParameterError("obstacle_memory", "must be a finite number >= 0 (s; 0 = no memory)");
   if (path_count < 3 || path_count > 1001)
     throw ParameterError("path_count", "must be within [3, 1001]");
 }

@@ -145,6 +145,7 @@ void readParameters(const ros::NodeHandle& nh, NavigatorParameters& p, NodeParam
   readInt(nh, "path_count", p.path_count);
   readNumber(nh, "blocked_timeout", p.blocked_timeout);
   readNumber(nh, "self_padding", p.self_padding);
+  readNumber(nh, "obstacle_memory", p.obstacle_memory);
   p.validate();
 
   readStringList(nh, "scan_topics", n.scan_topics);

@@ -187,6 +187,60 @@ TEST(NavigatorCore, PointsOnItsOwnBodyAreDroppedAndDoNotHoldItBack)
   }
 }
 
+// A wall 0.9 m ahead of a robot standing still, seen at the first step only (then out of the
+// sensors' view): the forward speed commanded at each later step, until `until` s.
+std::vector<std::pair<double, double>> forwardSpeedAfterAWallSeenOnce(double memory, double until)
+{
+  NavigatorParameters p;
+  p.obstacle_memory = memory;
+  NavigatorCore core(p);
+  core.setGoal(4.0, 0.0);
+  ObstaclePoints wall;
+  addWallAlongY(wall, 0.9, -15.0, 15.0);
+  core.step(1.0, Pose2{}, wall);
+  std::vector<std::pair<double, double>> speeds;
+  for (int k = 1; 1.0 + k * kStep <= until + 1e-9; ++k)
+    speeds.emplace_back(1.0 + k * kStep, core.step(1.0 + k * kStep, Pose2{}, {}).vx);
+  return speeds;
+}
+
+TEST(NavigatorCore, AnObstacleOutOfViewStillBlocksWithinTheMemoryTimeNotAfter)
+{
+  for (const auto& [t, vx] : forwardSpeedAfterAWallSeenOnce(2.0, 4.0))
+  {
+    if (t < 1.0 + 2.0 - 1e-6)
+    {
+      EXPECT_LT(vx, 0.05) << "forgot the wall at t = " << t;
+    }
+    else if (t > 1.0 + 2.0 + 0.5)  // forgotten; the PTG ramps up its speed
+    {
+      EXPECT_GT(vx, 0.1) << "still held back at t = " << t;
+    }
+  }
+  // Memoryless, the robot drives on as soon as the wall is out of view.
+  EXPECT_GT(forwardSpeedAfterAWallSeenOnce(0.0, 1.6).back().second, 0.1);
+}
+
+TEST(NavigatorCore, RememberedPointsFollowTheRobotAndAreKeptOnePerCell)
+{
+  NavigatorParameters p;
+  p.obstacle_memory = 2.0;
+  NavigatorCore core(p);
+  ObstaclePoints dense;  // 100 points within one 5 cm cell, 2 m ahead
+  for (int i = 0; i < 100; ++i)
+    dense.emplace_back(2.01f + 0.0003f * static_cast<float>(i), 0.02f, 0.2f);
+  core.step(1.0, Pose2{}, dense);
+  EXPECT_EQ(core.lastObstaclePoints(), 100u);
+  EXPECT_EQ(core.lastRememberedPoints(), 0u);
+  // The robot moved 1 m and turned: the cell is remembered as one point (the newest seen in it).
+  core.step(1.1, Pose2{ 0.0, 1.0, M_PI / 2 }, {});
+  EXPECT_EQ(core.lastRememberedPoints(), 1u);
+  EXPECT_EQ(core.lastObstaclePoints(), 1u);
+  // Out of the look-ahead (4 m): forgotten.
+  core.step(1.2, Pose2{ -3.0, 0.0, 0.0 }, {});
+  EXPECT_EQ(core.lastRememberedPoints(), 0u);
+}
+
 TEST(NavigatorCore, IdleWithoutAGoal)
 {
   NavigatorCore core(NavigatorParameters{});
@@ -273,6 +327,9 @@ TEST(Parameters, EachBadValueNamesItsParameter)
   p = NavigatorParameters{};
   p.self_padding = -0.1;
   expectError(p, "self_padding");
+  p = NavigatorParameters();
+  p.obstacle_memory = -1.0;
+  expectError(p, "obstacle_memory");
 
   NodeParameters n;
   expectError(n, "scan_topics");

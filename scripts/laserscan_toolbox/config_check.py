@@ -152,6 +152,7 @@ NAVIGATOR = {
     "path_count": Key("int", 61, lo=3, hi=1001, doc="candidate directions of the PTG"),
     "blocked_timeout": Key("float", 15.0, "s", lo=0.0, lo_open=True, finite=True, doc="no progress -> blocked"),
     "self_padding": Key("float", 0.05, "m", lo=0.0, finite=True, doc="points this close to the shape are its body"),
+    "obstacle_memory": Key("float", 2.0, "s", lo=0.0, finite=True, doc="obstacle points kept after last seen"),
     "control_rate": Key("float", 10.0, "Hz", lo=0.0, lo_open=True, finite=True, doc="steps per second (ROS time)"),
     "lockstep": Key("bool", False, doc="steps wait for every source's data (simulation)"),
     "lockstep_timeout": Key("float", 5.0, "s", lo=0.0, lo_open=True, finite=True, doc="wall s a step waits"),

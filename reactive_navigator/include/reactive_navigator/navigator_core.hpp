@@ -59,6 +59,9 @@ public:
   /// Points inside the robot's own shape (grown by self_padding) are dropped first: they are its
   /// body (a corner lidar sees it; REP 117's -Inf beams where the body hides the view become
   /// points at range_min, inside it), and MRPT would take them as a collision and never move.
+  /// With obstacle_memory > 0, the points of earlier steps (kept in the odometry frame, one per
+  /// 5 cm cell, the newest; forgotten obstacle_memory s after their cell was last seen or when
+  /// farther than lookahead) are handed to MRPT beside the step's own, seen from the pose now.
   /// Returns the command to drive until the next step (zero unless navigating).
   Command step(double time, const Pose2& pose, const ObstaclePoints& obstacles);
 
@@ -66,6 +69,8 @@ public:
   /// Obstacle points of the last step: handed to MRPT, and dropped as the robot's own body.
   std::size_t lastObstaclePoints() const;
   std::size_t lastSelfPoints() const;
+  /// Of lastObstaclePoints(), those remembered from earlier steps (obstacle_memory).
+  std::size_t lastRememberedPoints() const;
   const NavigatorParameters& parameters() const;
 
 private:

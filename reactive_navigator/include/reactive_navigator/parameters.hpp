@@ -48,6 +48,10 @@ struct NavigatorParameters
   int path_count = 61;                                     ///< candidate directions of the PTG
   double blocked_timeout = 15.0;                           ///< s without approaching the goal -> blocked
   double self_padding = 0.05;  ///< m: points within the shape grown by this are the robot's own body
+  /// s: obstacle points are remembered (in the odometry frame, one per 5 cm cell) this long after
+  /// they were last seen, as a costmap's obstacle layer keeps what left the sensors' view (a table
+  /// top the cameras no longer see when the robot is under its edge); 0 = only the step's points.
+  double obstacle_memory = 2.0;
 
   void validate() const;
   bool volumetric() const { return mode == "3d"; }
