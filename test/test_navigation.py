@@ -52,6 +52,16 @@ def test_each_mode_listens_to_its_inputs():
     assert config_check.check_data(raw, kind="navigator") == []
 
 
+def test_a_navigator_that_arrived_is_reached_by_ground_truth():
+    # The simulator's map -> odom is the true pose: the navigator stops on it, within a tolerance
+    # tighter than the simulator's, so that its "reached" is the record's.
+    from laserscan_toolbox.simulation.closed_loop import ClosedLoopConfig
+    for mode in navigation.MODES:
+        cfg = navigation.navigator_config(mode)
+        assert cfg["odom_frame"] == "map"
+        assert cfg["goal_tolerance"] < ClosedLoopConfig(route="table").goal_tolerance_m
+
+
 def row(mode, pts, cpu, system, t=20.0, reached=True, collisions=0, c3d=0, route="table"):
     return {"mode": mode, "route": route, "points_per_camera": pts, "navigator_cpu_percent": cpu,
             "system_cpu_percent": system, "time_to_goal_s": t, "reached": reached, "collisions": collisions,
