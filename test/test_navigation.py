@@ -52,6 +52,19 @@ def test_each_mode_listens_to_its_inputs():
     assert config_check.check_data(raw, kind="navigator") == []
 
 
+def test_the_demo_summary_reports_each_run_and_each_target_met_or_missed():
+    from laserscan_toolbox.evaluation import report
+    run = {"mode": "unified", "points_per_camera": 50000, "reached": False, "time_to_goal_s": None,
+           "collisions": 0, "collisions_3d": 0, "navigator_cpu_percent": 15.8, "system_cpu_percent": 25.2}
+    lines = report.navigation_summary_lines({"runs": [run], "targets": {
+        "unified_reached_without_collision": {"met": False, "figure": []},
+        "lidar_only_misses_3d_obstacle": {"met": True, "figure": [1]}}})
+    assert "unified" in lines[0] and "reached no" in lines[0] and "(3D 0)" in lines[0] and "15.8" in lines[0]
+    assert lines[1:] == ["  navigation target unified_reached_without_collision: missed",
+                         "  navigation target lidar_only_misses_3d_obstacle: met"]
+    assert report.navigation_summary_lines(None) == []
+
+
 def test_a_navigator_that_arrived_is_reached_by_ground_truth():
     # The simulator's map -> odom is the true pose: the navigator stops on it, within a tolerance
     # tighter than the simulator's, so that its "reached" is the record's.
