@@ -506,6 +506,7 @@ void ReactiveNavigatorRos::runStep(const ros::Time& time, bool latest_pose)
   cpu_max_ = std::max(cpu_max_, cpu);
   points_sum_ += core_->lastObstaclePoints();
   self_points_sum_ += core_->lastSelfPoints();
+  remembered_points_sum_ += core_->lastRememberedPoints();
   ++steps_;
   ++steps_total_;
 }
@@ -537,8 +538,9 @@ void ReactiveNavigatorRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
   status.add("cpu per step max (ms)", 1e3 * cpu_max_);
   status.add("obstacle points per step", steps_ ? points_sum_ / steps_ : 0);
   status.add("own body points per step", steps_ ? self_points_sum_ / steps_ : 0);
+  status.add("remembered points per step", steps_ ? remembered_points_sum_ / steps_ : 0);
   cpu_sum_ = cpu_max_ = 0.0;
-  points_sum_ = self_points_sum_ = steps_ = 0;
+  points_sum_ = self_points_sum_ = remembered_points_sum_ = steps_ = 0;
 }
 
 }  // namespace reactive_navigator

@@ -88,6 +88,7 @@ private:
   double cpu_max_ = 0.0;
   std::size_t points_sum_ = 0;
   std::size_t self_points_sum_ = 0;
+  std::size_t remembered_points_sum_ = 0;  // of points_sum_, from the obstacle memory
   std::size_t steps_ = 0;
   std::size_t steps_total_ = 0;
 };
