@@ -62,6 +62,8 @@ COMMANDS = {
     "scripts/evaluate_bag test/data/real/dual_lidar_scans_demo.bag --launch launch/dual_lidar_demo.launch "
     "--output /tmp/dual --rate 2": "test/test_end_to_end.py",
     "scripts/cpu_experiment --quick --output /tmp/cpu_quick": "scripts/demo",
+    "scripts/navigation_experiment --output /tmp/navigation --quick": "scripts/demo",
+    "scripts/navigation_experiment --output /tmp/navigation": CHECKED,  # the whole sweep: hours
     "scripts/cpu_experiment --duration 4 --output /tmp/cpu": CHECKED,
     "scripts/octomap_comparison --quick --output /tmp/octomap_quick": CHECKED,  # minutes
     "scripts/octomap_comparison --output /tmp/octomap": CHECKED,  # about 40 minutes
@@ -601,18 +603,24 @@ def parameter_table(readme, section, first_column="parameter", nth=0):
 def parse_default(cell):
     if cell.startswith("(required"):
         return ""  # a required string: the struct's default is empty
+    if cell.startswith("("):  # "(the paper's robot)": no value of its own
+        return None
     text = re.sub(r"\s*\(.*\)$", "", cell.replace("`", "")).strip()
     words = {"pi": math.pi, "-pi": -math.pi, "pi/720": math.pi / 720, "+inf": math.inf, ".inf": math.inf,
              "true": True, "false": False, '""': "", "[]": [], "absent": {}}
     if text in words:
         return words[text]
+    if text.startswith("[") and text.endswith("]"):
+        import yaml
+        return yaml.safe_load(text)
     try:
         return float(text)
     except ValueError:
         return text
 
 
-TYPES = {"float": "double", "int": "int", "whole": "int", "bool": "bool", "str": "string", "polygon": "list of `[x, y]`",
+TYPES = {"topic_list": "list of strings", "band": "[min, max]", "shape_levels": "list of {height, polygon}",
+         "float": "double", "int": "int", "whole": "int", "bool": "bool", "str": "string", "polygon": "list of `[x, y]`",
          "self_filter": "dict"}
 
 
@@ -621,6 +629,7 @@ TYPES = {"float": "double", "int": "int", "whole": "int", "bool": "bool", "str":
     ("depth_filter_scan_converter/README.md", "## range_scan_converter", "parameter", 0, "RANGE"),
     ("multi_laserscan_merger/README.md", "### Parameters", "parameter", 0, "MERGER"),
     ("multi_laserscan_merger/README.md", "### Parameters", "key", 0, "SOURCE"),
+    ("reactive_navigator/README.md", "## Parameters", "parameter", 0, "NAVIGATOR"),
 ])
 def test_parameter_tables_match_the_schema(readme, section, column, nth, schema):
     keys = getattr(config_schema(), schema)

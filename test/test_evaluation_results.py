@@ -40,7 +40,8 @@ def with_ground_truth(slam=None, octomap=None):
         mapping={"/merged_scan": {"iou": 0.8}, "files": {"/merged_scan": "merged_scan.png"}},
         slam=slam or SlamRun(slam=SLAM, localization=LOCALIZATION, figures={"maps": "slam_maps.png"},
                              min_interval_s=0.2, seed=0, tolerance_m=0.1),
-        octomap=octomap or {"runs": [{"method": "unified"}], "targets": []}, **common())
+        octomap=octomap or {"runs": [{"method": "unified"}], "targets": []},
+        navigation={"runs": [{"mode": "unified", "reached": True}]}, **common())
 
 
 def documented_keys():

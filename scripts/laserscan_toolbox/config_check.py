@@ -78,6 +78,83 @@ SCHEMAS = {"converter": CONVERTER, "merger": MERGER, "range": RANGE}
 RANGE_KEYS_ONLY = {"arc_width_scale", "arc_width", "min_consecutive_readings"}
 
 
+# reactive_navigator (its own package: MRPT's navigators): reactive_navigator/README.md, Parameters.
+NAVIGATOR = {
+    "mode": Key("str", "2d", doc="2d (footprint, planar points) or 3d (shape_3d, 3D points)"),
+    "scan_topics": Key("topic_list", [], doc="LaserScan obstacle sources"),
+    "cloud_topics": Key("topic_list", [], doc="PointCloud2 obstacle sources (float32 x, y, z)"),
+    "odom_frame": Key("str", "odom", nonempty=True, doc="the frame the robot's pose is in"),
+    "robot_frame": Key("str", "base_link", nonempty=True, doc="the robot's frame"),
+    "height_band": Key("band", [0.05, 0.90], "m", doc="cloud points kept: [min, max] in robot_frame"),
+    "footprint": Key("polygon", None, "m", doc="the robot's outline (2d); default the paper's 0.74 x 0.48 m"),
+    "shape_3d": Key("shape_levels", None, "m", doc="prisms stacked from the floor: {height, polygon} (3d)"),
+    "max_linear_speed": Key("float", 0.5, "m/s", lo=0.0, lo_open=True, finite=True, doc="speed limit"),
+    "max_angular_speed": Key("float", 0.8, "rad/s", lo=0.0, lo_open=True, finite=True, doc="turn rate limit"),
+    "linear_acceleration": Key("float", 1.0, "m/s^2", lo=0.0, lo_open=True, finite=True, doc="acceleration"),
+    "goal_tolerance": Key("float", 0.25, "m", lo=0.0, lo_open=True, finite=True, doc="reached closer than this"),
+    "lookahead": Key("float", 4.0, "m", lo=0.0, lo_open=True, finite=True, doc="obstacles considered up to"),
+    "path_count": Key("int", 61, lo=3, hi=1001, doc="candidate directions of the PTG"),
+    "blocked_timeout": Key("float", 15.0, "s", lo=0.0, lo_open=True, finite=True, doc="no progress -> blocked"),
+    "self_padding": Key("float", 0.05, "m", lo=0.0, finite=True, doc="points this close to the shape are its body"),
+    "obstacle_memory": Key("float", 2.0, "s", lo=0.0, finite=True, doc="obstacle points kept after last seen"),
+    "control_rate": Key("float", 10.0, "Hz", lo=0.0, lo_open=True, finite=True, doc="steps per second (ROS time)"),
+    "lockstep": Key("bool", False, doc="steps wait for every source's data (simulation)"),
+    "lockstep_timeout": Key("float", 5.0, "s", lo=0.0, lo_open=True, finite=True, doc="wall s a step waits"),
+}
+SCHEMAS["navigator"] = NAVIGATOR
+NAVIGATOR_KEYS_ONLY = {"scan_topics", "cloud_topics", "shape_3d", "lockstep", "goal_tolerance"}
+
+
+def _check_navigator_value(path, key, value):
+    """The navigator's own kinds of value (lists of topics, the band, the 3D shape)."""
+    if key.kind == "topic_list":
+        if not (isinstance(value, list) and all(isinstance(t, str) and t.strip() for t in value)):
+            return ["%s: must be a list of topic names" % path]
+        if len(set(value)) != len(value):
+            return ["%s: a topic is listed twice" % path]
+        return []
+    if key.kind == "band":
+        if not (isinstance(value, list) and len(value) == 2 and all(_num(v) and math.isfinite(v) for v in value)):
+            return ["%s: must be [min, max] (m)" % path]
+        return [] if value[0] < value[1] else ["%s: min must be below max, got %r" % (path, value)]
+    if key.kind == "shape_levels":
+        if not (isinstance(value, list) and value):
+            return ["%s: must be a list of {height, polygon} levels" % path]
+        problems = []
+        for i, level in enumerate(value):
+            p = "%s[%d]" % (path, i)
+            if not (isinstance(level, dict) and set(level) == {"height", "polygon"}):
+                problems.append("%s: must be {height: m, polygon: [[x, y], ...]}" % p)
+                continue
+            h = level["height"]
+            if not (_num(h) and math.isfinite(h) and h > 0):
+                problems.append("%s.height: must be a finite number > 0 (m)" % p)
+            problems += _check_polygon(p + ".polygon", level["polygon"]) or (
+                [] if len(level["polygon"]) >= 3 else ["%s.polygon: needs at least 3 [x, y] points" % p])
+        return problems
+    return check_value(path, key, value)
+
+
+def check_navigator(params, prefix=""):
+    """Problems of a reactive_navigator block."""
+    problems = []
+    for k in params:
+        if k not in NAVIGATOR:
+            close = difflib.get_close_matches(str(k), list(NAVIGATOR), n=1)
+            problems.append("%s: unknown parameter%s" % (_join(prefix, k), " (did you mean '%s'?)" % close[0]
+                                                         if close else ""))
+    for k, key in NAVIGATOR.items():
+        if k in params:
+            problems += _check_navigator_value(_join(prefix, k), key, params[k])
+    if params.get("mode", "2d") not in ("2d", "3d"):
+        problems.append("%s: must be '2d' or '3d', got %r" % (_join(prefix, "mode"), params.get("mode")))
+    if "footprint" in params and isinstance(params["footprint"], list) and len(params["footprint"]) < 3:
+        problems.append("%s: needs at least 3 [x, y] points" % _join(prefix, "footprint"))
+    if not params.get("scan_topics") and not params.get("cloud_topics"):
+        problems.append("%s: no obstacle source: give scan_topics and/or cloud_topics" % _join(prefix, "scan_topics"))
+    return problems
+
+
 def check_range(params, prefix=""):
     """Problems of a range_scan_converter block (no cross-field rule: each key stands alone)."""
     return _check_block(params, RANGE, [], prefix)
@@ -340,6 +417,8 @@ def guess_kind(params):
         return None
     if "sources" in params or "output_frame" in params or "odom_topic" in params:
         return "merger"
+    if set(params) & NAVIGATOR_KEYS_ONLY:
+        return "navigator"
     if set(params) & RANGE_KEYS_ONLY:
         return "range"
     if set(params) & {"reference_frame", "min_height", "max_height", "floor_height",
@@ -370,6 +449,8 @@ def frames_of(prefix, kind, params):
     """(key path, frame) pairs the configuration names."""
     if kind == "range":
         return []  # the arc is in the frame each Range message names
+    if kind == "navigator":
+        return [(_join(prefix, k), params.get(k, NAVIGATOR[k].default)) for k in ("odom_frame", "robot_frame")]
     key = "reference_frame" if kind == "converter" else "output_frame"
     return [(_join(prefix, key), params.get(key, SCHEMAS[kind][key].default))]
 
@@ -421,7 +502,8 @@ def check_data(data, kind=None, tf_tree=None, topic_frames=None):
         return ["(file): no converter or merger parameters found (use --kind to say which)"]
     problems = []
     for prefix, k, params in blocks:
-        problems += {"converter": check_converter, "merger": check_merger, "range": check_range}[k](params, prefix)
+        problems += {"converter": check_converter, "merger": check_merger, "range": check_range,
+                     "navigator": check_navigator}[k](params, prefix)
         if tf_tree is not None:
             for path, frame in frames_of(prefix, k, params):
                 if isinstance(frame, str) and frame and not tf_tree.has(frame):
@@ -617,7 +699,7 @@ def main(argv=None):
                     "files. Prints each problem as 'path.to.key: reason'. Exit status: "
                     "0 all files usable, 1 a file has problems, 2 usage error or missing file.")
     p.add_argument("files", nargs="+", metavar="FILE")
-    p.add_argument("--kind", choices=["converter", "merger", "range"],
+    p.add_argument("--kind", choices=["converter", "merger", "range", "navigator"],
                    help="what the files configure (default: guessed from the keys)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--bag", help="check frames (and merger source topics) against this bag's "

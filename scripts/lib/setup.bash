@@ -27,6 +27,8 @@ DEBIAN_PACKAGES=(
   libtf2-dev libtf2-msgs-dev
   # the 3D method the unified scan is compared with (bag_to_octomap, docs/octomap.md)
   liboctomap-dev
+  # the navigation experiment's navigator (reactive_navigator: MRPT's TP-Space navigators)
+  libmrpt-nav-dev libmrpt-kinematics-dev libstd-msgs-dev libgeometry-msgs-dev
   # tests and benchmarks
   librostest-dev googletest libgtest-dev libbenchmark-dev pybind11-dev python3-dev python3-pytest
   python3-pytest-xdist

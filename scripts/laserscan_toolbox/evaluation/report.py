@@ -551,9 +551,27 @@ def summary_text(res):
                          r["method"], r["resolution_m"], fmt(r["cpu_s_per_s"], 1, 3),
                          fmt(r["map_memory_mb"], 1, 3), fmt(r["peak_memory_mb"], 1, 0),
                          fmt(r["obstacles_3d_found"], 100), fmt(r["map_precision"], 100)))
+    lines += navigation_summary_lines(res.navigation)
     for c in res.thresholds:
         lines.append("  %s %s" % ("PASS" if c.ok else "FAIL", c.check))
     return "\n".join(lines)
+
+
+def navigation_summary_lines(nav):
+    """The closed-loop navigation run (scripts/navigation_experiment's navigation.json): each run,
+    then the issue's targets met or missed (reported, as OctoMap's; its --check is the threshold)."""
+    if not nav:
+        return []
+    lines = []
+    for r in nav["runs"]:
+        lines.append("  navigation %-10s %3dk: reached %s, time to goal %s s, collisions %d (3D %d), "
+                     "navigator CPU %s%%, system %s%%" % (
+                         r["mode"], r["points_per_camera"] // 1000, "yes" if r["reached"] else "no",
+                         fmt(r["time_to_goal_s"]), r["collisions"], r["collisions_3d"],
+                         fmt(r["navigator_cpu_percent"]), fmt(r["system_cpu_percent"])))
+    for name, t in nav.get("targets", {}).items():
+        lines.append("  navigation target %s: %s" % (name, {True: "met", False: "missed", None: "n/a"}[t["met"]]))
+    return lines
 
 
 def cpu_summary_lines(res):

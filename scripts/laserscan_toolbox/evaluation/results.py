@@ -98,6 +98,8 @@ class EvaluationResult:
     octomap: Step = None
     # without ground truth
     scan_plot: Optional[dict] = None
+    # added by scripts/demo: the closed-loop navigation run (scripts/navigation_experiment)
+    navigation: Optional[dict] = None
     thresholds: List[Check] = field(default_factory=list)
     passed: bool = False
     evaluation_wall_s: float = 0.0

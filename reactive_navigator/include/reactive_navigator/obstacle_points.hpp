@@ -1,0 +1,49 @@
+// Obstacle points for the navigator from a scan's beams or a cloud's points, in the robot frame.
+// ROS-free: the glue hands in the message's arrays and the sensor's transform at its stamp.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include <Eigen/Geometry>
+
+#include "reactive_navigator/navigator_core.hpp"
+
+namespace reactive_navigator
+{
+
+/// A LaserScan's geometry and ranges (m, rad), as the message carries them.
+struct ScanView
+{
+  const float* ranges = nullptr;
+  std::size_t count = 0;
+  double angle_min = 0.0;
+  double angle_increment = 0.0;
+  double range_min = 0.0;
+  double range_max = 0.0;
+};
+
+/// Appends one point per beam that sees an obstacle, in the robot frame. REP 117: a finite range
+/// within [range_min, range_max] is a point; -Inf (an object closer than range_min) becomes a
+/// point at range_min, so that what is too close stays an obstacle; +Inf (no return), NaN and
+/// finite ranges outside the limits add nothing. A scan is planar: no height band (its plane, or
+/// the unified scan's projection, already chose what is an obstacle). Returns the points added.
+std::size_t appendScanPoints(const ScanView& scan, const Eigen::Isometry3d& sensor_to_robot, ObstaclePoints& out);
+
+/// A PointCloud2's x, y, z float32 fields: `count` points `point_step` bytes apart.
+struct CloudView
+{
+  const std::uint8_t* data = nullptr;
+  std::size_t count = 0;
+  std::size_t point_step = 0;
+  std::size_t offset_x = 0;
+  std::size_t offset_y = 0;
+  std::size_t offset_z = 0;
+};
+
+/// Appends the cloud's finite points whose height in the robot frame is within
+/// [band_min, band_max] (as a costmap's obstacle layer keeps its band). Returns the points added.
+std::size_t appendCloudPoints(const CloudView& cloud, const Eigen::Isometry3d& sensor_to_robot, double band_min,
+                              double band_max, ObstaclePoints& out);
+
+}  // namespace reactive_navigator

@@ -1,0 +1,76 @@
+// The navigator's parameters: the robot's shape, its limits and the navigation's tuning (core), and
+// what only the ROS node needs (topics, frames, rate, lockstep). Defaults are written here; every
+// validate() throws laserscan_common::ParameterError naming the parameter and the reason.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "laserscan_common/parameter_error.hpp"
+
+namespace reactive_navigator
+{
+
+using laserscan_common::ParameterError;
+
+/// A polygon in the robot frame (m), vertices in order.
+using Polygon = std::vector<Eigen::Vector2d>;
+
+/// One prism of the robot's 3D shape: `height` m tall, stacked on the one below it (the first
+/// starts at z = 0 of the robot frame, the floor), with `polygon` as its cross-section.
+struct ShapeLevel
+{
+  double height = 0.0;
+  Polygon polygon;
+};
+
+/// The paper's robot: a 0.74 m x 0.48 m base, centred on base_link.
+Polygon paperRobotFootprint();
+/// The paper's robot by height: the base (0 - 0.60 m) and the stowed arm above it (0.60 - 0.90 m,
+/// the simulator's arm: scripts/laserscan_toolbox/simulation/robot.py).
+std::vector<ShapeLevel> paperRobotShape3d();
+
+/// What the navigation core needs (ROS-free).
+struct NavigatorParameters
+{
+  /// "2d": MRPT's CReactiveNavigationSystem (footprint, obstacle points projected to the floor);
+  /// "3d": CReactiveNavigationSystem3D (the shape by height, 3D obstacle points).
+  std::string mode = "2d";
+  Polygon footprint = paperRobotFootprint();               ///< m, robot frame (2d)
+  std::vector<ShapeLevel> shape_3d = paperRobotShape3d();  ///< m, robot frame (3d)
+  double max_linear_speed = 0.5;                           ///< m/s
+  double max_angular_speed = 0.8;                          ///< rad/s
+  double linear_acceleration = 1.0;                        ///< m/s^2 (the PTG's ramp time is speed / this)
+  double goal_tolerance = 0.25;                            ///< m, the goal is reached closer than this
+  double lookahead = 4.0;                                  ///< m, obstacles farther away are ignored
+  int path_count = 61;                                     ///< candidate directions of the PTG
+  double blocked_timeout = 15.0;                           ///< s without approaching the goal -> blocked
+  double self_padding = 0.05;  ///< m: points within the shape grown by this are the robot's own body
+  /// s: obstacle points are remembered (in the odometry frame, one per 5 cm cell) this long after
+  /// they were last seen, as a costmap's obstacle layer keeps what left the sensors' view (a table
+  /// top the cameras no longer see when the robot is under its edge); 0 = only the step's points.
+  double obstacle_memory = 2.0;
+
+  void validate() const;
+  bool volumetric() const { return mode == "3d"; }
+};
+
+/// What only the ROS node needs.
+struct NodeParameters
+{
+  std::vector<std::string> scan_topics;   ///< LaserScan obstacle sources
+  std::vector<std::string> cloud_topics;  ///< PointCloud2 obstacle sources (x, y, z float32)
+  std::string odom_frame = "odom";
+  std::string robot_frame = "base_link";
+  double height_band_min = 0.05;  ///< m, robot frame: cloud points below are dropped (the floor)
+  double height_band_max = 0.90;  ///< m, robot frame: cloud points above are dropped (the robot passes under)
+  double control_rate = 10.0;     ///< Hz, on ROS time
+  bool lockstep = false;          ///< wait for every source's data of a step (simulation only)
+  double lockstep_timeout = 5.0;  ///< wall s a lockstep step waits before running on what it has
+
+  void validate() const;
+};
+
+}  // namespace reactive_navigator

@@ -1,0 +1,96 @@
+// ROS glue of the navigator: goal, tf pose, LaserScan and PointCloud2 obstacles in; cmd_vel,
+// ~state, ~step and /diagnostics out. One class shared by the nodelet and the node.
+#pragma once
+
+#include <deque>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2/buffer_core.h>
+
+#include "laserscan_common/throttle.hpp"
+#include "laserscan_common/transform_reader.hpp"
+#include "reactive_navigator/navigator_core.hpp"
+
+namespace reactive_navigator
+{
+
+/// Reads the parameters from the private node handle, strictly (a wrong type is an error);
+/// throws ParameterError naming the parameter.
+void readParameters(const ros::NodeHandle& private_nh, NavigatorParameters& navigator, NodeParameters& node);
+
+class ReactiveNavigatorRos
+{
+public:
+  ReactiveNavigatorRos(ros::NodeHandle nh, ros::NodeHandle private_nh);
+
+private:
+  // The messages of one obstacle topic, oldest first (a few: a step takes the newest stamped up to
+  // its time, and newer ones may already be there).
+  struct Source
+  {
+    std::string topic;
+    bool is_cloud = false;
+    std::deque<sensor_msgs::LaserScan::ConstPtr> scans;
+    std::deque<sensor_msgs::PointCloud2::ConstPtr> clouds;
+    ros::Time newest_stamp;
+  };
+
+  void goalArrived(const geometry_msgs::PoseStamped::ConstPtr& goal);
+  bool tryPendingGoal(bool give_up_when_late);  // true when it became the core's goal
+  void scanArrived(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& scan);
+  void cloudArrived(std::size_t source, const sensor_msgs::PointCloud2::ConstPtr& cloud);
+  void timerStep(const ros::TimerEvent& event);
+  void lockstepWatchdog(const ros::WallTimerEvent& event);
+  void tryLockstepStep();
+  bool poseAt(const ros::Time& time, bool latest, Pose2& pose);
+  void collectObstacles(const ros::Time& time, bool up_to_time);
+  void runStep(const ros::Time& time, bool latest_pose);
+  ros::Time onGrid(const ros::Time& time, long& index) const;
+  void publishState();  // ~state when it changed (latched)
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void warn(const std::string& kind, const std::string& text);
+
+  NavigatorParameters navigator_parameters_;
+  NodeParameters parameters_;
+  std::unique_ptr<NavigatorCore> core_;
+
+  ros::NodeHandle nh_, private_nh_;
+  tf2::BufferCore tf_buffer_;
+  std::unique_ptr<laserscan_common::TransformReader> tf_reader_;
+  ros::Subscriber goal_sub_;
+  std::vector<ros::Subscriber> obstacle_subs_;
+  ros::Publisher cmd_pub_, state_pub_, step_pub_;
+  ros::Timer step_timer_;
+  ros::WallTimer watchdog_timer_, retry_timer_, diagnostics_timer_;
+  diagnostic_updater::Updater diagnostics_;
+  laserscan_common::WarningThrottle throttle_;
+
+  std::mutex mutex_;  // the callbacks may run on several threads (a nodelet manager)
+  std::vector<Source> sources_;
+  geometry_msgs::PoseStamped::ConstPtr pending_goal_;  // waiting for its transform
+  ros::WallTime pending_since_;
+  ObstaclePoints points_;
+  long next_step_ = -1;          // lockstep: grid index of the next step (time = index / rate)
+  ros::WallTime waiting_since_;  // lockstep: when the pending step started waiting
+  NavigationState published_state_ = NavigationState::Idle;
+  bool state_published_ = false;
+  // Diagnostics since the last report.
+  double cpu_sum_ = 0.0;
+  double cpu_max_ = 0.0;
+  std::size_t points_sum_ = 0;
+  std::size_t self_points_sum_ = 0;
+  std::size_t remembered_points_sum_ = 0;  // of points_sum_, from the obstacle memory
+  std::size_t steps_ = 0;
+  std::size_t steps_total_ = 0;
+};
+
+}  // namespace reactive_navigator

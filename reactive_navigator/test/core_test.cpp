@@ -1,0 +1,400 @@
+// The navigation core against analytic cases: a robot integrated from the commands (omnidirectional,
+// exact kinematics) among obstacles given as world points, seen from the robot at every step.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+
+#include "reactive_navigator/navigator_core.hpp"
+#include "reactive_navigator/obstacle_points.hpp"
+
+namespace reactive_navigator
+{
+namespace
+{
+
+constexpr double kStep = 0.1;  // s, 10 Hz
+
+struct DriveResult
+{
+  NavigationState state = NavigationState::Idle;
+  std::vector<Pose2> path;
+};
+
+// Drives the robot from (0, 0, 0) to the goal among the world points for at most `duration` s.
+DriveResult drive(const NavigatorParameters& p, const ObstaclePoints& world, double goal_x, double goal_y,
+                  double duration = 30.0, double wall_pause_s = 0.0)
+{
+  NavigatorCore core(p);
+  core.setGoal(goal_x, goal_y);
+  DriveResult run;
+  Pose2 pose;
+  ObstaclePoints seen;
+  for (double t = 1.0; t < 1.0 + duration; t += kStep)
+  {
+    // A perturbation of the wall clock between steps (not a wait): the run must not change.
+    for (const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(wall_pause_s);
+         std::chrono::steady_clock::now() < until;)
+    {}
+    seen.clear();
+    const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
+    for (const auto& w : world)
+    {
+      const double dx = w.x() - pose.x, dy = w.y() - pose.y;
+      seen.emplace_back(static_cast<float>(c * dx + s * dy), static_cast<float>(-s * dx + c * dy), w.z());
+    }
+    const Command command = core.step(t, pose, seen);
+    run.path.push_back(pose);
+    run.state = core.state();
+    if (run.state != NavigationState::Navigating)
+      break;
+    pose.x += (c * command.vx - s * command.vy) * kStep;
+    pose.y += (s * command.vx + c * command.vy) * kStep;
+    pose.yaw += command.wz * kStep;
+  }
+  return run;
+}
+
+// Points every 5 cm along x = x0 for y in [y0, y1], at height z.
+void addWallAlongY(ObstaclePoints& points, double x0, double y0, double y1, double z = 0.2)
+{
+  for (double y = y0; y <= y1 + 1e-9; y += 0.05)
+    points.emplace_back(static_cast<float>(x0), static_cast<float>(y), static_cast<float>(z));
+}
+
+double largestX(const DriveResult& run)
+{
+  double x = -1e9;
+  for (const auto& pose : run.path)
+    x = std::max(x, pose.x);
+  return x;
+}
+
+TEST(NavigatorCore, ReachesAGoalInFreeSpace)
+{
+  for (const char* mode : { "2d", "3d" })
+  {
+    NavigatorParameters p;
+    p.mode = mode;
+    const DriveResult run = drive(p, {}, 3.0, 1.0);
+    EXPECT_EQ(run.state, NavigationState::Reached) << mode;
+    EXPECT_LT(std::hypot(run.path.back().x - 3.0, run.path.back().y - 1.0), p.goal_tolerance + 0.05) << mode;
+  }
+}
+
+TEST(NavigatorCore, AWallAheadStopsIt)
+{
+  NavigatorParameters p;
+  p.blocked_timeout = 5.0;
+  ObstaclePoints wall;
+  addWallAlongY(wall, 1.5, -15.0, 15.0);
+  const DriveResult run = drive(p, wall, 4.0, 0.0, 40.0);
+  EXPECT_EQ(run.state, NavigationState::Blocked);
+  // Its (circular) shape never touched the wall.
+  EXPECT_LT(largestX(run) + 0.441, 1.5);
+}
+
+TEST(NavigatorCore, TakesAGapItFitsThrough)
+{
+  NavigatorParameters p;
+  ObstaclePoints wall;
+  // A wall at x = 2 with a 1.3 m gap centred on y = 0.5 (the robot's circle is 0.88 m wide).
+  addWallAlongY(wall, 2.0, -6.0, -0.15);
+  addWallAlongY(wall, 2.0, 1.15, 6.0);
+  const DriveResult run = drive(p, wall, 4.0, 0.0);
+  EXPECT_EQ(run.state, NavigationState::Reached);
+  for (const auto& pose : run.path)
+    if (std::abs(pose.x - 2.0) < 0.05)
+      EXPECT_LT(std::abs(pose.y - 0.5), 0.65) << "crossed the wall outside the gap at y = " << pose.y;
+}
+
+// A table across the way, its top at the arm's height (0.70 - 0.75 m), legs far to the sides.
+ObstaclePoints tableAcrossTheWay(double top_z)
+{
+  ObstaclePoints points;
+  for (double x = 1.5; x <= 2.5 + 1e-9; x += 0.05)
+    for (double y = -6.0; y <= 6.0 + 1e-9; y += 0.05)
+      points.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(top_z));
+  return points;
+}
+
+// What a level lidar at 0.2 m sees of it: nothing but the legs, beyond the way.
+ObstaclePoints tableLegsOnly()
+{
+  ObstaclePoints points;
+  for (double y : { -6.0, 6.0 })
+    for (double x : { 1.5, 2.5 })
+      points.emplace_back(static_cast<float>(x), static_cast<float>(y), 0.2f);
+  return points;
+}
+
+TEST(NavigatorCore, ATableTopAtTheArmsHeightBlocksThe3dNavigator)
+{
+  NavigatorParameters p;
+  p.mode = "3d";
+  p.blocked_timeout = 5.0;
+  const DriveResult run = drive(p, tableAcrossTheWay(0.72), 4.0, 0.0, 40.0);
+  EXPECT_NE(run.state, NavigationState::Reached);
+  EXPECT_LT(largestX(run) + 0.441, 1.5);
+}
+
+TEST(NavigatorCore, TheSameTableTopAboveTheRobotLetsThe3dNavigatorPassUnder)
+{
+  NavigatorParameters p;
+  p.mode = "3d";
+  const DriveResult run = drive(p, tableAcrossTheWay(0.95), 4.0, 0.0);
+  EXPECT_EQ(run.state, NavigationState::Reached);
+}
+
+TEST(NavigatorCore, ATableTopBlocksThe2dNavigatorFedAScanThatHoldsIt)
+{
+  NavigatorParameters p;
+  p.blocked_timeout = 5.0;
+  // The unified scan holds the top's edge (its points projected to the floor by the 2D navigator).
+  ObstaclePoints scan;
+  addWallAlongY(scan, 1.5, -6.0, 6.0, 0.0);
+  const DriveResult run = drive(p, scan, 4.0, 0.0, 40.0);
+  EXPECT_NE(run.state, NavigationState::Reached);
+  EXPECT_LT(largestX(run) + 0.441, 1.5);
+}
+
+TEST(NavigatorCore, The2dNavigatorFedOnlyTheLegsDrivesUnderTheTable)
+{
+  // What the lidar-only mode misses: the way looks free.
+  NavigatorParameters p;
+  const DriveResult run = drive(p, tableLegsOnly(), 4.0, 0.0);
+  EXPECT_EQ(run.state, NavigationState::Reached);
+}
+
+TEST(NavigatorCore, PointsOnItsOwnBodyAreDroppedAndDoNotHoldItBack)
+{
+  for (const char* mode : { "2d", "3d" })
+  {
+    NavigatorParameters p;
+    p.mode = mode;
+    NavigatorCore core(p);
+    core.setGoal(3.0, 0.0);
+    // What a corner lidar sees of the body (inside, and 3 cm off its side), and one real obstacle.
+    const ObstaclePoints points = {
+      { 0.30f, 0.20f, 0.2f }, { -0.35f, 0.27f, 0.2f }, { 0.0f, 0.0f, 0.7f }, { 2.0f, 2.0f, 0.2f }
+    };
+    Command c;
+    for (int i = 0; i < 5; ++i)
+      c = core.step(1.0 + 0.1 * i, Pose2{}, points);
+    EXPECT_EQ(core.lastSelfPoints(), 3u) << mode;
+    EXPECT_EQ(core.lastObstaclePoints(), 1u) << mode;
+    EXPECT_GT(c.vx, 0.1) << mode;
+  }
+}
+
+// A wall 0.9 m ahead of a robot standing still, seen at the first step only (then out of the
+// sensors' view): the forward speed commanded at each later step, until `until` s.
+std::vector<std::pair<double, double>> forwardSpeedAfterAWallSeenOnce(double memory, double until)
+{
+  NavigatorParameters p;
+  p.obstacle_memory = memory;
+  NavigatorCore core(p);
+  core.setGoal(4.0, 0.0);
+  ObstaclePoints wall;
+  addWallAlongY(wall, 0.9, -15.0, 15.0);
+  core.step(1.0, Pose2{}, wall);
+  std::vector<std::pair<double, double>> speeds;
+  for (int k = 1; 1.0 + k * kStep <= until + 1e-9; ++k)
+    speeds.emplace_back(1.0 + k * kStep, core.step(1.0 + k * kStep, Pose2{}, {}).vx);
+  return speeds;
+}
+
+TEST(NavigatorCore, AnObstacleOutOfViewStillBlocksWithinTheMemoryTimeNotAfter)
+{
+  for (const auto& [t, vx] : forwardSpeedAfterAWallSeenOnce(2.0, 4.0))
+  {
+    if (t < 1.0 + 2.0 - 1e-6)
+    {
+      EXPECT_LT(vx, 0.05) << "forgot the wall at t = " << t;
+    }
+    else if (t > 1.0 + 2.0 + 0.5)  // forgotten; the PTG ramps up its speed
+    {
+      EXPECT_GT(vx, 0.1) << "still held back at t = " << t;
+    }
+  }
+  // Memoryless, the robot drives on as soon as the wall is out of view.
+  EXPECT_GT(forwardSpeedAfterAWallSeenOnce(0.0, 1.6).back().second, 0.1);
+}
+
+TEST(NavigatorCore, RememberedPointsFollowTheRobotAndAreKeptOnePerCell)
+{
+  NavigatorParameters p;
+  p.obstacle_memory = 2.0;
+  NavigatorCore core(p);
+  ObstaclePoints dense;  // 100 points within one 5 cm cell, 2 m ahead
+  for (int i = 0; i < 100; ++i)
+    dense.emplace_back(2.01f + 0.0003f * static_cast<float>(i), 0.02f, 0.2f);
+  core.step(1.0, Pose2{}, dense);
+  EXPECT_EQ(core.lastObstaclePoints(), 100u);
+  EXPECT_EQ(core.lastRememberedPoints(), 0u);
+  // The robot moved 1 m and turned: the cell is remembered as one point (the newest seen in it).
+  core.step(1.1, Pose2{ 0.0, 1.0, M_PI / 2 }, {});
+  EXPECT_EQ(core.lastRememberedPoints(), 1u);
+  EXPECT_EQ(core.lastObstaclePoints(), 1u);
+  // Out of the look-ahead (4 m): forgotten.
+  core.step(1.2, Pose2{ -3.0, 0.0, 0.0 }, {});
+  EXPECT_EQ(core.lastRememberedPoints(), 0u);
+}
+
+TEST(NavigatorCore, IdleWithoutAGoal)
+{
+  NavigatorCore core(NavigatorParameters{});
+  const Command c = core.step(1.0, Pose2{}, {});
+  EXPECT_EQ(core.state(), NavigationState::Idle);
+  EXPECT_EQ(c.vx, 0.0);
+  EXPECT_EQ(c.vy, 0.0);
+  EXPECT_EQ(c.wz, 0.0);
+}
+
+TEST(NavigatorCore, SameInputsGiveTheSameRun)
+{
+  NavigatorParameters p;
+  ObstaclePoints wall;
+  addWallAlongY(wall, 2.0, -6.0, -0.15);
+  addWallAlongY(wall, 2.0, 1.15, 6.0);
+  // The second run's steps come 0 - 20 ms of wall time later each: MRPT must not see it.
+  const DriveResult a = drive(p, wall, 4.0, 0.0);
+  const DriveResult b = drive(p, wall, 4.0, 0.0, 30.0, 0.02);
+  ASSERT_EQ(a.path.size(), b.path.size());
+  for (std::size_t i = 0; i < a.path.size(); ++i)
+  {
+    EXPECT_EQ(a.path[i].x, b.path[i].x);
+    EXPECT_EQ(a.path[i].y, b.path[i].y);
+  }
+}
+
+// validate() throws ParameterError naming `name`.
+template <class Parameters>
+void expectError(const Parameters& p, const std::string& name)
+{
+  try
+  {
+    p.validate();
+    ADD_FAILURE() << "no error for " << name;
+  }
+  catch (const ParameterError& e)
+  {
+    EXPECT_EQ(e.parameter(), name);
+  }
+}
+
+TEST(Parameters, EachBadValueNamesItsParameter)
+{
+  NavigatorParameters p;
+  p.mode = "2.5d";
+  expectError(p, "mode");
+  p = NavigatorParameters{};
+  p.footprint = { { 0, 0 }, { 1, 0 } };
+  expectError(p, "footprint");
+  p = NavigatorParameters{};
+  p.footprint = { { 0, 0 }, { 1, 0 }, { 2, 0 } };
+  expectError(p, "footprint");
+  p = NavigatorParameters{};
+  p.shape_3d.clear();
+  expectError(p, "shape_3d");
+  p = NavigatorParameters{};
+  p.shape_3d[1].height = 0.0;
+  expectError(p, "shape_3d[1].height");
+  p = NavigatorParameters{};
+  p.shape_3d[0].polygon.resize(2);
+  expectError(p, "shape_3d[0].polygon");
+  p = NavigatorParameters{};
+  p.max_linear_speed = std::nan("");
+  expectError(p, "max_linear_speed");
+  p = NavigatorParameters{};
+  p.max_angular_speed = -1.0;
+  expectError(p, "max_angular_speed");
+  p = NavigatorParameters{};
+  p.linear_acceleration = 0.0;
+  expectError(p, "linear_acceleration");
+  p = NavigatorParameters{};
+  p.goal_tolerance = 0.0;
+  expectError(p, "goal_tolerance");
+  p = NavigatorParameters{};
+  p.lookahead = INFINITY;
+  expectError(p, "lookahead");
+  p = NavigatorParameters{};
+  p.blocked_timeout = 0.0;
+  expectError(p, "blocked_timeout");
+  p = NavigatorParameters{};
+  p.path_count = 2;
+  expectError(p, "path_count");
+  p = NavigatorParameters{};
+  p.self_padding = -0.1;
+  expectError(p, "self_padding");
+  p = NavigatorParameters();
+  p.obstacle_memory = -1.0;
+  expectError(p, "obstacle_memory");
+
+  NodeParameters n;
+  expectError(n, "scan_topics");
+  n.scan_topics = { "a", "a" };
+  expectError(n, "scan_topics");
+  n.scan_topics = { "a" };
+  n.cloud_topics = { "" };
+  expectError(n, "cloud_topics");
+  n.cloud_topics = {};
+  n.odom_frame = "";
+  expectError(n, "odom_frame");
+  n.odom_frame = "odom";
+  n.robot_frame = "odom";
+  expectError(n, "robot_frame");
+  n.robot_frame = "base_link";
+  n.height_band_min = 1.0;
+  expectError(n, "height_band");
+  n.height_band_min = 0.05;
+  n.control_rate = 0.0;
+  expectError(n, "control_rate");
+  n.control_rate = 10.0;
+  n.lockstep_timeout = -1.0;
+  expectError(n, "lockstep_timeout");
+  n.lockstep_timeout = 5.0;
+  EXPECT_NO_THROW(n.validate());
+}
+
+TEST(ObstaclePoints, ScanBeamsFollowRep117)
+{
+  const float inf = std::numeric_limits<float>::infinity();
+  const float ranges[] = { 1.0f, inf, -inf, std::nanf(""), 0.05f, 50.0f, 2.0f };
+  ScanView scan{ ranges, 7, 0.0, M_PI / 2.0, 0.1, 10.0 };
+  Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
+  mount.translation() = Eigen::Vector3d(0.4, 0.0, 0.2);
+  ObstaclePoints out;
+  ASSERT_EQ(appendScanPoints(scan, mount, out), 3u);
+  EXPECT_NEAR(out[0].x(), 1.4f, 1e-6);  // beam 0 at 0 rad, 1 m
+  EXPECT_NEAR(out[0].z(), 0.2f, 1e-6);
+  EXPECT_NEAR(out[1].x(), 0.3f, 1e-6);         // beam 2 at pi rad: -Inf -> range_min
+  EXPECT_NEAR(out[2].x(), 0.4f - 2.0f, 1e-5);  // beam 6 at 3 pi rad, 2 m
+}
+
+TEST(ObstaclePoints, CloudPointsAreTransformedAndKeptInTheBand)
+{
+  // A camera tilted 90 degrees down (optical z along -z of the robot) 1 m above base_link.
+  struct P
+  {
+    float x, y, z, pad;
+  };
+  const P points[] = { { 0, 0, 0.5f, 0 }, { 0, 0, 0.99f, 0 }, { 0, 0, NAN, 0 }, { 0, 0, 0.2f, 0 } };
+  CloudView cloud{ reinterpret_cast<const std::uint8_t*>(points), 4, sizeof(P), 0, 4, 8 };
+  Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
+  mount.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
+  mount.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  ObstaclePoints out;
+  ASSERT_EQ(appendCloudPoints(cloud, mount, 0.05, 0.9, out), 2u);
+  EXPECT_NEAR(out[0].z(), 0.5f, 1e-6);  // 0.5 m below the camera
+  EXPECT_NEAR(out[1].z(), 0.8f, 1e-6);  // 0.2 m below; the 0.99 m one is at 0.01 m: the floor
+}
+
+}  // namespace
+}  // namespace reactive_navigator
+
+int main(int argc, char** argv)
+{
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

@@ -1,0 +1,189 @@
+#!/usr/bin/python3
+"""rostest node shared by navigator_node.test and navigator_nodelet.test.
+
+Drives the navigator in lockstep on simulated time, as the closed-loop simulator does: for each
+step time t it publishes /clock = t, the robot's tf at t, a LaserScan from a lidar 0.2 m above
+base_link and a PointCloud2 from a camera 1 m up looking straight down, both stamped t, and waits
+for ~step stamped t. Checks: a goal in gives cmd_vel towards it (and ~step carries the same
+command), a wall in the scan stops the forward motion, and the cloud's points go through tf (only
+those the camera sees inside the height band count as obstacles, /diagnostics says how many)."""
+import math
+import threading
+import time
+import unittest
+
+import numpy as np
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped, TransformStamped, Twist, TwistStamped
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan, PointCloud2, PointField
+from std_msgs.msg import String
+from tf2_msgs.msg import TFMessage
+
+BEAMS = 360
+STEP = 0.1  # s, the navigator's control_rate is 10 Hz
+# The camera cloud: 40 points 0.5 m below the camera (0.5 m above the floor: obstacles) and 60
+# points 0.98 m below it (0.02 m above the floor, under the height band's 0.05 m).
+IN_BAND, BELOW_BAND = 40, 60
+
+
+def transform(parent, child, t, x, y, z, qx=0.0, qy=0.0, qz=0.0, qw=1.0):
+    m = TransformStamped()
+    m.header.stamp = t
+    m.header.frame_id = parent
+    m.child_frame_id = child
+    m.transform.translation.x, m.transform.translation.y, m.transform.translation.z = x, y, z
+    m.transform.rotation.x, m.transform.rotation.y, m.transform.rotation.z, m.transform.rotation.w = qx, qy, qz, qw
+    return m
+
+
+def camera_cloud(stamp):
+    depth = np.concatenate([np.full(IN_BAND, 0.5), np.full(BELOW_BAND, 0.98)]).astype(np.float32)
+    xs = np.linspace(0.5, 1.5, depth.size).astype(np.float32)
+    # Camera y = 1.5 m is robot y = -1.5 m (the camera is upside down): beside the way.
+    points = np.stack([xs, np.full_like(xs, 1.5), depth], axis=1).astype(np.float32)
+    m = PointCloud2()
+    m.header.stamp = stamp
+    m.header.frame_id = 'camera'
+    m.height, m.width = 1, points.shape[0]
+    m.fields = [PointField(n, 4 * i, PointField.FLOAT32, 1) for i, n in enumerate('xyz')]
+    m.point_step, m.row_step = 12, 12 * points.shape[0]
+    m.is_dense = True
+    m.data = points.tobytes()
+    return m
+
+
+def lidar_scan(stamp, wall_x=None):
+    a = -math.pi + 2 * math.pi / BEAMS * np.arange(BEAMS)
+    ranges = np.full(BEAMS, np.inf, dtype=np.float32)
+    if wall_x is not None:
+        ahead = np.cos(a) > 0.1
+        ranges[ahead] = (wall_x / np.cos(a[ahead])).astype(np.float32)
+        ranges[ranges > 30.0] = np.inf
+    m = LaserScan()
+    m.header.stamp = stamp
+    m.header.frame_id = 'lidar'
+    m.angle_min, m.angle_increment, m.angle_max = -math.pi, 2 * math.pi / BEAMS, math.pi - 2 * math.pi / BEAMS
+    m.range_min, m.range_max = 0.05, 30.0
+    m.ranges = ranges.tolist()
+    return m
+
+
+class NavigatorTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('navigator_test')
+        cls.cond = threading.Condition()
+        cls.steps, cls.cmds, cls.states, cls.diagnostics = {}, [], [], []
+        cls.clock = rospy.Publisher('/clock', Clock, queue_size=10)
+        cls.tf = rospy.Publisher('/tf', TFMessage, queue_size=10)
+        cls.tf_static = rospy.Publisher('/tf_static', TFMessage, queue_size=1, latch=True)
+        cls.scan = rospy.Publisher('scan', LaserScan, queue_size=10)
+        cls.cloud = rospy.Publisher('cloud', PointCloud2, queue_size=10)
+        cls.goal = rospy.Publisher('move_base_simple/goal', PoseStamped, queue_size=1, latch=True)
+        rospy.Subscriber('navigator/step', TwistStamped, cls.keep('steps'))
+        rospy.Subscriber('cmd_vel', Twist, cls.keep('cmds'))
+        rospy.Subscriber('navigator/state', String, cls.keep('states'))
+        rospy.Subscriber('/diagnostics', DiagnosticArray, cls.keep('diagnostics'))
+        cls.t = 1.0
+        cls.publish_clock(cls.t)
+        # The camera 1 m above base_link, turned 180 degrees about x: its z axis points down.
+        cls.tf_static.publish(TFMessage([
+            transform('base_link', 'lidar', rospy.Time(0), 0.0, 0.0, 0.2),
+            transform('base_link', 'camera', rospy.Time(0), 0.3, 0.0, 1.0, qx=1.0, qw=0.0)]))
+        for pub in (cls.scan, cls.cloud, cls.tf, cls.goal):
+            cls.wait_for(lambda p=pub: p.get_num_connections() > 0, 'the navigator to subscribe')
+
+    @classmethod
+    def keep(cls, name):
+        def callback(m):
+            with cls.cond:
+                if name == 'steps':
+                    cls.steps[round(m.header.stamp.to_sec() / STEP)] = m
+                else:
+                    getattr(cls, name).append(m)
+                cls.cond.notify_all()
+        return callback
+
+    @classmethod
+    def wait_for(cls, condition, what, timeout=20.0):
+        with cls.cond:
+            ok = cls.cond.wait_for(condition, timeout)
+        assert ok, 'timed out waiting for ' + what
+
+    @classmethod
+    def publish_clock(cls, t):
+        m = Clock()
+        m.clock = rospy.Time.from_sec(t)
+        cls.clock.publish(m)
+
+    def step(self, wall_x=None):
+        """One lockstep step at the next grid time; returns the navigator's command for it."""
+        cls = type(self)
+        cls.t = round(cls.t + STEP, 6)
+        stamp = rospy.Time.from_sec(cls.t)
+        cls.publish_clock(cls.t)
+        cls.tf.publish(TFMessage([transform('odom', 'base_link', stamp, 0.0, 0.0, 0.0)]))
+        cls.scan.publish(lidar_scan(stamp, wall_x))
+        cls.cloud.publish(camera_cloud(stamp))
+        k = round(cls.t / STEP)
+        cls.wait_for(lambda: k in cls.steps, 'the step at %.1f s' % cls.t)
+        return cls.steps[k]
+
+    def send_goal(self, x, y):
+        m = PoseStamped()
+        m.header.frame_id = 'odom'
+        m.pose.position.x, m.pose.position.y = x, y
+        m.pose.orientation.w = 1.0
+        self.goal.publish(m)
+
+    def test_a_goal_in_gives_cmd_vel_towards_it(self):
+        self.send_goal(3.0, 0.0)
+        for _ in range(100):  # the goal arrives while steps run
+            self.step()
+            with self.cond:
+                if self.states and self.states[-1].data == 'navigating':
+                    break
+        self.assertEqual(self.states[-1].data, 'navigating')
+        for _ in range(5):
+            step = self.step()
+        self.assertGreater(step.twist.linear.x, 0.1)
+        self.assertLess(abs(step.twist.linear.y), 0.5 * step.twist.linear.x)
+        # cmd_vel carries the same command as ~step.
+        self.wait_for(lambda: self.cmds and self.cmds[-1].linear.x == step.twist.linear.x, 'cmd_vel')
+
+    def test_b_a_wall_in_the_scan_stops_the_forward_motion(self):
+        self.send_goal(3.0, 0.0)
+        for _ in range(10):
+            step = self.step(wall_x=0.75)
+        for _ in range(5):
+            step = self.step(wall_x=0.75)
+            self.assertLess(step.twist.linear.x, 0.05)
+
+    def test_c_cloud_points_go_through_tf_and_the_height_band(self):
+        with self.cond:
+            del self.diagnostics[:]
+
+        def reported():
+            for array in self.diagnostics:
+                for status in array.status:
+                    values = {v.key: v.value for v in status.values}
+                    if values.get('obstacle points per step') == str(IN_BAND):
+                        return True
+            return False
+        # Steps with no wall (the scan adds no point) until a diagnostics report covers only them.
+        deadline = time.monotonic() + 20.0  # the report comes every wall second
+        while time.monotonic() < deadline:
+            self.step()
+            with self.cond:
+                if reported():
+                    break
+        seen = [v.value for a in self.diagnostics for st in a.status for v in st.values
+                if v.key == 'obstacle points per step']
+        self.assertTrue(reported(), 'no report of %d obstacle points per step: %s' % (IN_BAND, seen))
+
+
+if __name__ == '__main__':
+    rostest.rosrun('reactive_navigator', 'navigator_test', NavigatorTest)

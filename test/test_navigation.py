@@ -1,0 +1,112 @@
+"""The navigation experiment's pieces: reactive_navigator's parameters in check_config's schema
+(the shipped YAML passes, each bad value is named), the experiment's targets from runs, and one
+short closed-loop run end to end (scripts/navigation_experiment's run: the simulator in lockstep
+with the real navigator, lidar-only, a few simulated seconds)."""
+import math
+import os
+
+import pytest
+import yaml
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(HERE)
+from laserscan_toolbox import config_check
+from laserscan_toolbox.experiments import navigation
+
+YAML = os.path.join(REPO, "reactive_navigator", "config", "reactive_navigator.yaml")
+
+
+def test_the_shipped_navigator_yaml_passes_and_names_every_parameter():
+    assert config_check.check_file(YAML) == []
+    with open(YAML) as f:
+        assert set(yaml.safe_load(f)) == set(config_check.NAVIGATOR)
+
+
+def test_the_readme_lists_every_navigator_parameter():
+    with open(os.path.join(REPO, "reactive_navigator", "README.md")) as f:
+        text = f.read()
+    for key in config_check.NAVIGATOR:
+        assert "| `%s` |" % key in text, key
+
+
+@pytest.mark.parametrize("key, value, says", [
+    ("mode", "2.5d", "mode"), ("scan_topics", ["a", "a"], "listed twice"), ("height_band", [0.9, 0.1], "below"),
+    ("footprint", [[0, 0], [1, 0]], "footprint"), ("shape_3d", [{"height": 0, "polygon": [[0, 0], [1, 0], [0, 1]]}],
+                                                   "shape_3d[0].height"),
+    ("max_linear_speed", 0, "max_linear_speed"), ("path_count", 2, "path_count"), ("lockstep", 1, "lockstep"),
+    ("self_padding", -0.1, "self_padding"), ("control_rate", float("inf"), "control_rate"),
+    ("obstacle_memory", -1.0, "obstacle_memory"),
+])
+def test_check_config_names_each_bad_navigator_value(key, value, says):
+    params = {"scan_topics": ["merged_scan"], key: value}
+    problems = config_check.check_data(params, kind="navigator")
+    assert any(says in p for p in problems), problems
+
+
+def test_each_mode_listens_to_its_inputs():
+    assert navigation.navigator_config("unified")["scan_topics"] == ["/merged_scan"]
+    raw = navigation.navigator_config("raw_3d")
+    assert raw["mode"] == "3d" and raw["cloud_topics"] and raw["scan_topics"]
+    assert config_check.check_data(raw, kind="navigator") == []
+
+
+def test_the_demo_summary_reports_each_run_and_each_target_met_or_missed():
+    from laserscan_toolbox.evaluation import report
+    run = {"mode": "unified", "points_per_camera": 50000, "reached": False, "time_to_goal_s": None,
+           "collisions": 0, "collisions_3d": 0, "navigator_cpu_percent": 15.8, "system_cpu_percent": 25.2}
+    lines = report.navigation_summary_lines({"runs": [run], "targets": {
+        "unified_reached_without_collision": {"met": False, "figure": []},
+        "lidar_only_misses_3d_obstacle": {"met": True, "figure": [1]}}})
+    assert "unified" in lines[0] and "reached no" in lines[0] and "(3D 0)" in lines[0] and "15.8" in lines[0]
+    assert lines[1:] == ["  navigation target unified_reached_without_collision: missed",
+                         "  navigation target lidar_only_misses_3d_obstacle: met"]
+    assert report.navigation_summary_lines(None) == []
+
+
+def test_a_navigator_that_arrived_is_reached_by_ground_truth():
+    # The simulator's map -> odom is the true pose: the navigator stops on it, within a tolerance
+    # tighter than the simulator's, so that its "reached" is the record's.
+    from laserscan_toolbox.simulation.closed_loop import ClosedLoopConfig
+    for mode in navigation.MODES:
+        cfg = navigation.navigator_config(mode)
+        assert cfg["odom_frame"] == "map"
+        assert cfg["goal_tolerance"] < ClosedLoopConfig(route="table").goal_tolerance_m
+
+
+def row(mode, pts, cpu, system, t=20.0, reached=True, collisions=0, c3d=0, route="table"):
+    return {"mode": mode, "route": route, "points_per_camera": pts, "navigator_cpu_percent": cpu,
+            "system_cpu_percent": system, "time_to_goal_s": t, "reached": reached, "collisions": collisions,
+            "collisions_3d": c3d}
+
+
+def test_targets_from_runs():
+    runs = [row("unified", 50000, 2.0, 10.0, 20.5), row("raw_3d", 50000, 15.0, 15.0, 20.0),
+            row("unified", 300000, 2.2, 11.0), row("raw_3d", 300000, 30.0, 30.0),
+            row("lidar_only", 50000, 1.0, 1.0, c3d=1)]
+    t = navigation.targets(runs)
+    assert t["unified_reached_without_collision"]["met"]
+    assert t["unified_time_within_5_percent_of_raw_3d"]["met"]
+    assert t["lidar_only_misses_3d_obstacle"]["met"]
+    assert t["unified_navigator_cpu_flat_table"]["met"]
+    assert math.isclose(t["navigator_cpu_10x_below_raw_at_300k_table"]["figure"], 30.0 / 2.2)
+    assert t["navigator_cpu_10x_below_raw_at_300k_table"]["met"]
+    assert t["system_cpu_below_raw_from_50k_table"]["met"]
+    runs[0]["system_cpu_percent"] = 16.0
+    runs[0]["collisions"] = 1
+    t = navigation.targets(runs)
+    assert not t["system_cpu_below_raw_from_50k_table"]["met"]
+    assert not t["unified_reached_without_collision"]["met"]
+
+
+def test_a_short_closed_loop_run_end_to_end(tmp_path):
+    """The real navigator drives the simulated robot (lidar-only, the table route) for 4 simulated
+    seconds after the goal: every step answered in lockstep, the robot went towards the goal, the
+    navigator's CPU and memory measured."""
+    r, record = navigation.run_one("lidar_only", 10000, "table", str(tmp_path), timeout_s=4.0)
+    assert r["lockstep_timeouts"] == 0
+    assert r["path_length_m"] > 0.8  # at up to 0.5 m/s, from standstill
+    start, end = record["trajectory"][0], record["trajectory"][-1]
+    assert end[1] - start[1] > 0.5  # the goal lies along +x of the map
+    assert 0.0 < r["navigator_cpu_percent"] < 100.0
+    assert r["system_cpu_percent"] == r["navigator_cpu_percent"]  # no pipeline in lidar-only mode
+    assert r["navigator_memory_mb"] > 1.0
