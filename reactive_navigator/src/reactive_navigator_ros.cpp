@@ -209,7 +209,7 @@ ReactiveNavigatorRos::ReactiveNavigatorRos(ros::NodeHandle nh, ros::NodeHandle p
 
   diagnostics_.setHardwareID(ros::this_node::getName());
   diagnostics_.add("navigator", this, &ReactiveNavigatorRos::diagnose);
-  diagnostics_timer_ = laserscan_common::diagnosticsTimer(nh_, diagnostics_);
+  diagnostics_timer_ = laserscan_common::diagnosticsTimer(nh_, diagnostics_, ros::this_node::getName());
 
   publishState();
 }
