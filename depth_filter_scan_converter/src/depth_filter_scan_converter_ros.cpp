@@ -14,6 +14,7 @@
 
 #include "depth_filter_scan_converter/cloud_view.hpp"
 #include "laserscan_common/self_filter_parameters.hpp"
+#include "laserscan_common/node_log.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -79,25 +80,27 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
     tf_buffer_(ros::Duration(params_.transform.tf_buffer_duration)),
     lazy_([this] { subscribeInput(); }, [this] { unsubscribeInput(); }),
     projector_(params_),
-    diagnostics_(nh, private_nh, [this](diagnostic_updater::DiagnosticStatusWrapper& status) { diagnose(status); })
+    diagnostics_(nh, private_nh, "Input and processing",
+                 [this](diagnostic_updater::DiagnosticStatusWrapper& status) { diagnose(status); })
 {
   frame_id_ = laserscan_common::FrameIdNormaliser([this](const std::string& frame_id, const std::string& used) {
     // tf2_ros's MessageFilter strips it too; say it once, then use the frame without it.
-    ROS_WARN("[%s] frame_id '%s' on %s starts with '/', which tf2 does not accept: using '%s' (said once)",
-             private_nh_.getNamespace().c_str(), frame_id.c_str(), input_topic_.c_str(), used.c_str());
+    NODE_WARN(private_nh_.getNamespace(),
+              "frame_id '%s' on %s starts with '/', which tf2 does not accept: using '%s' (said once)",
+              frame_id.c_str(), input_topic_.c_str(), used.c_str());
   });
   tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, private_nh_.getNamespace());
   std::vector<std::string> self_filter_warnings;
   self_filter_ =
     laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(private_nh_), nh_, self_filter_warnings);
   for (const std::string& warning : self_filter_warnings)
-    ROS_WARN("[%s] self filter: %s", private_nh_.getNamespace().c_str(), warning.c_str());
+    NODE_WARN(private_nh_.getNamespace(), "self filter: %s", warning.c_str());
   // A message waits for its own transform and for those of the robot's parts at its stamp.
   tf_targets_ = { params_.transform.reference_frame };
   tf_targets_.insert(tf_targets_.end(), self_filter_.frames().begin(), self_filter_.frames().end());
   if (!self_filter_.empty())
-    ROS_INFO("[%s] self filter: %zu shapes on %zu frames", private_nh_.getNamespace().c_str(),
-             self_filter_.shapes().size(), self_filter_.frames().size());
+    NODE_INFO(private_nh_.getNamespace(), "self filter: %zu shapes on %zu frames", self_filter_.shapes().size(),
+              self_filter_.frames().size());
 
   // Messages wait in the tf filter (never in a callback) until their transform is there. The
   // filter delivers through nh's callback queue, so processing runs in the node's own threads.
@@ -256,12 +259,12 @@ void DepthFilterScanConverter::imageDropped(const Image::ConstPtr& image, const 
   ++received_;
   ++without_info_;
   if (warnings_.due("no camera_info"))
-    ROS_WARN(
-      "[%s] dropped a depth image on %s (stamp %s): no camera_info with its stamp came on %s before a "
-      "newer frame's did, or within queue_size (%d) frames",
-      private_nh_.getNamespace().c_str(), input_topic_.c_str(),
-      laserscan_common::stampText(image->header.stamp.sec, image->header.stamp.nsec).c_str(),
-      nh_.resolveName("camera_info").c_str(), queue_size_);
+    NODE_WARN(private_nh_.getNamespace(),
+              "dropped a depth image on %s (stamp %s): no camera_info with its stamp came on %s before a "
+              "newer frame's did, or within queue_size (%d) frames",
+              input_topic_.c_str(),
+              laserscan_common::stampText(image->header.stamp.sec, image->header.stamp.nsec).c_str(),
+              nh_.resolveName("camera_info").c_str(), queue_size_);
 }
 
 std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& header)
@@ -294,9 +297,9 @@ void DepthFilterScanConverter::dropMalformed(const std::string& reason, const st
   };
   last_malformed_reason_ = reason;
   if (warnings_.due("malformed: " + kind(reason)))
-    ROS_WARN("[%s] dropped a malformed %s on %s (frame '%s'): %s", private_nh_.getNamespace().c_str(),
-             input_ == DepthInput::Cloud ? "cloud" : "depth image", input_topic_.c_str(), frame_id.c_str(),
-             reason.c_str());
+    NODE_WARN(private_nh_.getNamespace(), "dropped a malformed %s on %s (frame '%s'): %s",
+              input_ == DepthInput::Cloud ? "cloud" : "depth image", input_topic_.c_str(), frame_id.c_str(),
+              reason.c_str());
 }
 
 bool DepthFilterScanConverter::takeArrival(const void* message, Arrival& arrival)
@@ -321,10 +324,10 @@ void DepthFilterScanConverter::transformFailed(const boost::shared_ptr<const M>&
   takeArrival(cloud.get(), arrival);
   last_tf_reason_ = failureText(reason);
   if (warnings_.due("no transform"))
-    ROS_WARN("[%s] dropped a cloud: no transform %s -> %s at %s: %s", private_nh_.getNamespace().c_str(),
-             cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
-             laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec).c_str(),
-             last_tf_reason_.c_str());
+    NODE_WARN(private_nh_.getNamespace(), "dropped a cloud: no transform %s -> %s at %s: %s",
+              cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
+              laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec).c_str(),
+              last_tf_reason_.c_str());
 }
 
 std::string DepthFilterScanConverter::viewOf(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size,
@@ -334,7 +337,7 @@ std::string DepthFilterScanConverter::viewOf(const Cloud& cloud, const std::uint
   const std::string reason =
     makeCloudView(cloudLayoutOf(cloud), bytes, size, params_.input.intensity_field, view, &intensity_note);
   if (reason.empty() && !intensity_note.empty() && warnings_.due("no intensity field", 30.0))
-    ROS_WARN("[%s] %s: the scan has no intensities", private_nh_.getNamespace().c_str(), intensity_note.c_str());
+    NODE_WARN(private_nh_.getNamespace(), "%s: the scan has no intensities", intensity_note.c_str());
   return reason;
 }
 
@@ -372,9 +375,9 @@ void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* byt
     {
       ++stale_;
       if (warnings_.due("late"))
-        ROS_WARN("[%s] dropped a cloud that waited %.3f s for its transform %s -> %s (transform_tolerance %.3f s)",
-                 name.c_str(), waited, cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
-                 params_.transform.transform_tolerance);
+        NODE_WARN(name, "dropped a cloud that waited %.3f s for its transform %s -> %s (transform_tolerance %.3f s)",
+                  waited, cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
+                  params_.transform.transform_tolerance);
       return;
     }
   }
@@ -408,7 +411,7 @@ void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* byt
     ++tf_failures_;
     last_tf_reason_ = e.what();
     if (warnings_.due("no transform"))
-      ROS_WARN("[%s] dropped a cloud: %s", name.c_str(), e.what());
+      NODE_WARN(name, "dropped a cloud: %s", e.what());
     return;
   }
 
@@ -492,14 +495,15 @@ void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level
   {
     projector_.setParameters(p);  // validates
     params_ = p;
-    ROS_INFO("[%s] reconfigured: band %.3f .. %.3f m above floor %.3f m, range %.3f .. %.3f m, holes %s (depth %.3f m)",
-             private_nh_.getNamespace().c_str(), p.band.min_height, p.band.max_height, p.band.floor_height,
-             p.scan.range_min, p.scan.range_max, p.band.hole_detection ? "on" : "off", p.band.hole_depth);
+    NODE_INFO(private_nh_.getNamespace(),
+              "reconfigured: band %.3f .. %.3f m above floor %.3f m, range %.3f .. %.3f m, holes %s (depth %.3f m)",
+              p.band.min_height, p.band.max_height, p.band.floor_height, p.scan.range_min, p.scan.range_max,
+              p.band.hole_detection ? "on" : "off", p.band.hole_depth);
   }
   catch (const ParameterError& e)
   {
-    ROS_WARN("[%s] rejected a dynamic_reconfigure change: %s; keeping the previous values",
-             private_nh_.getNamespace().c_str(), describe(e).c_str());
+    NODE_WARN(private_nh_.getNamespace(), "rejected a dynamic_reconfigure change: %s; keeping the previous values",
+              describe(e).c_str());
     write(params_);
   }
 }

@@ -15,6 +15,7 @@
 #include "laserscan_common/parameter_error.hpp"
 #include "laserscan_common/robot_shapes.hpp"
 #include "laserscan_common/self_filter.hpp"
+#include "laserscan_common/scan_geometry.hpp"
 
 namespace lc = laserscan_common;
 using Eigen::Isometry3d;
@@ -22,7 +23,7 @@ using Eigen::Vector3d;
 
 namespace
 {
-constexpr double kPi = 3.14159265358979323846;
+using laserscan_common::kPi;
 // Border tests: a millimetre inside / outside the padded surface (the test runs in float).
 constexpr double kEps = 1e-3;
 

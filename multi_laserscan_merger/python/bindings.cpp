@@ -218,7 +218,7 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
         std::vector<SourceStatus> status;
         core.merge(inputs, t_out, odom, o, out, status);
         py::dict r;
-        r["stamp"] = out.stamp;
+        r["stamp"] = t_out;  // the output time it was merged at
         r["ranges"] = py::array_t<float>(out.ranges.size(), out.ranges.data());
         r["intensities"] = py::array_t<float>(out.intensities.size(), out.intensities.data());
         py::list st;

@@ -8,8 +8,8 @@
 
 #include <tf2_eigen/tf2_eigen.h>
 
-#include "laserscan_common/diagnostics_timer.hpp"
 #include "laserscan_common/self_filter_parameters.hpp"
+#include "laserscan_common/node_log.hpp"
 
 namespace multi_laserscan_merger
 {
@@ -203,24 +203,24 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   const laserscan_common::SelfFilter self_filter =
     laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(private_nh_), nh_, self_filter_warnings);
   for (const std::string& warning : self_filter_warnings)
-    ROS_WARN("%s: self filter: %s", name_.c_str(), warning.c_str());
+    NODE_WARN(name_, "self filter: %s", warning.c_str());
   for (std::size_t i = 0; i < sources_.size(); ++i)
     if (params_.sources[i].self_filter)
       sources_[i].self_filter = self_filter;
   if (!self_filter.empty())
-    ROS_INFO("%s: self filter: %zu shapes on %zu frames", name_.c_str(), self_filter.shapes().size(),
-             self_filter.frames().size());
+    NODE_INFO(name_, "self filter: %zu shapes on %zu frames", self_filter.shapes().size(), self_filter.frames().size());
   for (std::size_t i = 0; i < sources_.size(); ++i)
-    sources_[i].frame_id =
-      laserscan_common::FrameIdNormaliser([this, i](const std::string& frame_id, const std::string& used) {
-        const SourceParams& sp = params_.sources[i];
-        ROS_WARN("%s: source '%s' (%s): frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
-                 name_.c_str(), sp.name.c_str(), sp.topic.c_str(), frame_id.c_str(), used.c_str());
-      });
+    sources_[i].frame_id = laserscan_common::FrameIdNormaliser([this, i](const std::string& frame_id,
+                                                                         const std::string& used) {
+      const SourceParams& sp = params_.sources[i];
+      NODE_WARN(name_, "source '%s' (%s): frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
+                sp.name.c_str(), sp.topic.c_str(), frame_id.c_str(), used.c_str());
+    });
   odom_child_frame_id_ =
     laserscan_common::FrameIdNormaliser([this](const std::string& frame_id, const std::string& used) {
-      ROS_WARN("%s: odometry (%s): child_frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
-               name_.c_str(), odom_topic_.c_str(), frame_id.c_str(), used.c_str());
+      NODE_WARN(name_,
+                "odometry (%s): child_frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
+                odom_topic_.c_str(), frame_id.c_str(), used.c_str());
     });
   inputs_.resize(params_.sources.size());
   std::vector<double> timeouts;
@@ -229,6 +229,7 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   SyncedOutputs<ScanInMerge>::Handlers handlers;
   handlers.merge = [this](std::size_t i, const ScanInMerge& scan) {
     sources_[i].scan = scan.msg;
+    sources_[i].view = scan.view;
     sources_[i].output_T_sensor = scan.output_T_sensor;
     sources_[i].scan_self_filter = scan.self_filter;
   };
@@ -248,15 +249,13 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
     ros::WallDuration(1.0), [this](const ros::SteadyTimerEvent&) { syncTimerCallback(); }, true, false);
   tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, name_);
   last_now_ = ros::Time::now();
-  last_report_ = ros::WallTime::now();
 
-  updater_ = std::make_unique<diagnostic_updater::Updater>(nh_, private_nh_, name_);
-  updater_->setHardwareID(name_);
+  diagnostics_ = std::make_unique<laserscan_common::NodeDiagnostics>(nh_, private_nh_);
   for (std::size_t i = 0; i < sources_.size(); ++i)
-    updater_->add("source " + params_.sources[i].name,
-                  [this, i](diagnostic_updater::DiagnosticStatusWrapper& s) { sourceDiagnostics(i, s); });
-  updater_->add("odometry", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { odometryDiagnostics(s); });
-  updater_->add("output", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { outputDiagnostics(s); });
+    diagnostics_->add("source " + params_.sources[i].name,
+                      [this, i](diagnostic_updater::DiagnosticStatusWrapper& s) { sourceDiagnostics(i, s); });
+  diagnostics_->add("odometry", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { odometryDiagnostics(s); });
+  diagnostics_->add("output", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { outputDiagnostics(s); });
 
   pub_ = nh_.advertise<sensor_msgs::LaserScan>(kOutputTopic, 10);
   for (std::size_t i = 0; i < sources_.size(); ++i)
@@ -273,13 +272,13 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   if (params_.publish_rate > 0.0)
     publish_timer_ = nh_.createTimer(ros::Duration(1.0 / params_.publish_rate),
                                      [this](const ros::TimerEvent& e) { timerCallback(e); });
-  diagnostics_timer_ = laserscan_common::diagnosticsTimer(nh_, *updater_);
-  ROS_INFO(
-    "%s: merging %zu sources into '%s' on '%s' (%zu beams), publish_rate %.1f Hz, sync_window %.3f s, motion "
-    "compensation %s",
-    name_.c_str(), sources_.size(), params_.output.frame.c_str(), output_topic.c_str(), core_->beamCount(),
-    params_.publish_rate, params_.sync_window,
-    params_.odom_topic.empty() ? "off" : ("from '" + params_.odom_topic + "'").c_str());
+  diagnostics_->start();
+  NODE_INFO(name_,
+            "merging %zu sources into '%s' on '%s' (%zu beams), publish_rate %.1f Hz, sync_window %.3f s, motion "
+            "compensation %s",
+            sources_.size(), params_.output.frame.c_str(), output_topic.c_str(), core_->beamCount(),
+            params_.publish_rate, params_.sync_window,
+            params_.odom_topic.empty() ? "off" : ("from '" + params_.odom_topic + "'").c_str());
 }
 
 void MultiLaserScanMergerRos::checkTimeJump()
@@ -299,7 +298,7 @@ void MultiLaserScanMergerRos::checkTimeJump()
 void MultiLaserScanMergerRos::clearAll(const std::string& why, const std::string& kind)
 {
   if (warnings_.due(kind))
-    ROS_WARN("%s: %s: scan and odometry buffers cleared", name_.c_str(), why.c_str());
+    NODE_WARN(name_, "%s: scan and odometry buffers cleared", why.c_str());
   for (auto& s : sources_)
   {
     s.scan.reset();
@@ -307,9 +306,7 @@ void MultiLaserScanMergerRos::clearAll(const std::string& why, const std::string
   }
   odom_.clear();
   odom_newest_ = ros::Time();
-  last_published_ = ros::Time();
   outputs_->reset();
-  tick_deferred_ = false;
 }
 
 bool MultiLaserScanMergerRos::tryTransform(const std::string& frame, const ros::Time& stamp,
@@ -392,8 +389,8 @@ void MultiLaserScanMergerRos::scanCallback(std::size_t i, const sensor_msgs::Las
     ++sources_[i].malformed;
     drop(i, std::string("unexpected error: ") + e.what());
     if (sources_[i].warnings.due("unexpected error"))
-      ROS_ERROR("%s: source '%s' (%s): scan dropped after an unexpected error (please report): %s", name_.c_str(),
-                params_.sources[i].name.c_str(), params_.sources[i].topic.c_str(), e.what());
+      NODE_ERROR(name_, "source '%s' (%s): scan dropped after an unexpected error (please report): %s",
+                 params_.sources[i].name.c_str(), params_.sources[i].topic.c_str(), e.what());
   }
 }
 
@@ -418,12 +415,11 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
     drop(i,
          std::string("malformed scan: ") + fault + " (stamp " + stamp + ", frame_id '" + msg->header.frame_id + "')");
     if (s.warnings.due(fault))  // a fixed text per kind of fault
-      ROS_WARN(
-        "%s: source '%s' (%s): malformed scan dropped: %s (stamp %s, clock %.3f, frame_id '%s', %zu "
-        "ranges, %zu intensities, angles %g..%g step %g)",
-        name_.c_str(), sp.name.c_str(), sp.topic.c_str(), fault, stamp.c_str(), now.toSec(),
-        msg->header.frame_id.c_str(), msg->ranges.size(), msg->intensities.size(), msg->angle_min, msg->angle_max,
-        msg->angle_increment);
+      NODE_WARN(name_,
+                "source '%s' (%s): malformed scan dropped: %s (stamp %s, clock %.3f, frame_id '%s', %zu "
+                "ranges, %zu intensities, angles %g..%g step %g)",
+                sp.name.c_str(), sp.topic.c_str(), fault, stamp.c_str(), now.toSec(), msg->header.frame_id.c_str(),
+                msg->ranges.size(), msg->intensities.size(), msg->angle_min, msg->angle_max, msg->angle_increment);
     retryPending();
     return;
   }
@@ -442,7 +438,7 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
                 "' before a newer scan was merged: " + s.pending_error);
       s.pending.reset();
     }
-    accept(i, msg, output_T_sensor, std::move(posed));
+    accept(i, msg, view, output_T_sensor, std::move(posed));
   }
   else
   {
@@ -451,9 +447,9 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
       ++s.transform_failures;  // replaced before its transform came
       drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "': " + s.pending_error);
       if (s.warnings.due("no transform before the next scan"))
-        ROS_WARN("%s: source '%s': no transform '%s' -> '%s' at %.3f, scan dropped: %s", name_.c_str(), sp.name.c_str(),
-                 s.pending_frame.c_str(), params_.output.frame.c_str(), s.pending->header.stamp.toSec(),
-                 s.pending_error.c_str());
+        NODE_WARN(name_, "source '%s': no transform '%s' -> '%s' at %.3f, scan dropped: %s", sp.name.c_str(),
+                  s.pending_frame.c_str(), params_.output.frame.c_str(), s.pending->header.stamp.toSec(),
+                  s.pending_error.c_str());
     }
     s.pending = msg;
     s.pending_frame = frame;
@@ -478,16 +474,16 @@ void MultiLaserScanMergerRos::retryPending()
         poseSelfFilter(i, *msg, s.pending_frame, posed, error))
     {
       s.pending.reset();
-      accept(i, msg, output_T_sensor, std::move(posed));
+      accept(i, msg, viewOf(*msg), output_T_sensor, std::move(posed));
     }
     else if ((ros::WallTime::now() - s.pending_since).toSec() > kTransformWait)
     {
       ++s.transform_failures;
       drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "' in time: " + error);
       if (s.warnings.due("no transform in time"))
-        ROS_WARN("%s: source '%s': no transform '%s' -> '%s' at %.3f within %.1f s, scan dropped: %s", name_.c_str(),
-                 params_.sources[i].name.c_str(), s.pending_frame.c_str(), params_.output.frame.c_str(),
-                 msg->header.stamp.toSec(), kTransformWait, error.c_str());
+        NODE_WARN(name_, "source '%s': no transform '%s' -> '%s' at %.3f within %.1f s, scan dropped: %s",
+                  params_.sources[i].name.c_str(), s.pending_frame.c_str(), params_.output.frame.c_str(),
+                  msg->header.stamp.toSec(), kTransformWait, error.c_str());
       s.pending.reset();
     }
     else
@@ -495,7 +491,7 @@ void MultiLaserScanMergerRos::retryPending()
   }
 }
 
-void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg,
+void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg, const ScanView& view,
                                      const Eigen::Isometry3d& output_T_sensor, laserscan_common::SelfFilter self_filter)
 {
   // outputs_ keeps the scan (unless older than the one kept: a late pending one is not newer
@@ -506,9 +502,9 @@ void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan
   // consumers that key on stamps take for the same scan: it goes into the next output instead.
   const double now = ros::SteadyTime::now().toSec();
   outputs_->add(i, static_cast<std::int64_t>(msg->header.stamp.toNSec()), now,
-                ScanInMerge{ msg, output_T_sensor, std::move(self_filter) }, now);
-  if (tick_deferred_)
-    publishTick(false);
+                ScanInMerge{ msg, view, output_T_sensor, std::move(self_filter) }, now);
+  if (params_.publish_rate > 0.0 && outputs_->waiting())
+    publishTick(false);  // a tick waits for scans of its stamp: this may be the last one
 }
 
 void MultiLaserScanMergerRos::armSyncTimer(double deadline)
@@ -522,14 +518,6 @@ void MultiLaserScanMergerRos::syncTimerCallback()
 {
   std::lock_guard<std::mutex> lock(mutex_);
   const double now = ros::SteadyTime::now().toSec();
-  if (tick_deferred_)
-  {
-    if (now < tick_deadline_)
-      armSyncTimer(tick_deadline_);  // a timer of an earlier window, or a little early
-    else
-      publishTick(true);
-    return;
-  }
   if (!outputs_->waiting())
     return;  // completed before the window ended
   if (now < outputs_->deadline())
@@ -537,7 +525,10 @@ void MultiLaserScanMergerRos::syncTimerCallback()
     armSyncTimer(outputs_->deadline());  // a timer of an earlier window, or a little early
     return;
   }
-  outputs_->expire(now);
+  if (params_.publish_rate > 0.0)
+    publishTick(true);
+  else
+    outputs_->expire(now);
 }
 
 void MultiLaserScanMergerRos::reportSync(const ros::Time& stamp, const StampSync::Decision& decision, bool waited)
@@ -555,11 +546,11 @@ void MultiLaserScanMergerRos::reportSync(const ros::Time& stamp, const StampSync
     ++s.missing_at_window;
     names += (names.empty() ? "'" : ", '") + sp.name + "'";
     if (s.warnings.due("late for sync_window"))
-      ROS_WARN(
-        "%s: source '%s' (%s): its scan stamped %.6f, the stamp of other sources' scans, was due and did not come "
-        "within sync_window %.3f s: output published without it (it goes into a later output when it comes; a "
-        "larger sync_window waits longer for it, 0 never waits)",
-        name_.c_str(), sp.name.c_str(), sp.topic.c_str(), stamp.toSec(), params_.sync_window);
+      NODE_WARN(name_,
+                "source '%s' (%s): its scan stamped %.6f, the stamp of other sources' scans, was due and did not come "
+                "within sync_window %.3f s: output published without it (it goes into a later output when it comes; a "
+                "larger sync_window waits longer for it, 0 never waits)",
+                sp.name.c_str(), sp.topic.c_str(), stamp.toSec(), params_.sync_window);
   }
   last_incomplete_ = laserscan_common::stampText(stamp.sec, stamp.nsec) + " without " + names;
 }
@@ -576,7 +567,7 @@ void MultiLaserScanMergerRos::odomCallback(const nav_msgs::Odometry::ConstPtr& m
     ++odom_rejected_;
     odom_last_rejection_ = std::string("unexpected error: ") + e.what();
     if (warnings_.due("odometry: unexpected error"))
-      ROS_ERROR("%s: odometry message dropped after an unexpected error (please report): %s", name_.c_str(), e.what());
+      NODE_ERROR(name_, "odometry message dropped after an unexpected error (please report): %s", e.what());
   }
 }
 
@@ -593,8 +584,8 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
     const std::string stamp = laserscan_common::stampText(msg->header.stamp.sec, msg->header.stamp.nsec);
     odom_last_rejection_ = std::string(fault) + " (stamp " + stamp + ")";
     if (warnings_.due(std::string("odometry: ") + fault))
-      ROS_WARN("%s: odometry (%s) with stamp %s ignored: %s (clock %.3f)", name_.c_str(), odom_topic_.c_str(),
-               stamp.c_str(), fault, now.toSec());
+      NODE_WARN(name_, "odometry (%s) with stamp %s ignored: %s (clock %.3f)", odom_topic_.c_str(), stamp.c_str(),
+                fault, now.toSec());
     retryPending();
     return;
   }
@@ -606,21 +597,18 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
     ++odom_rejected_;
     odom_last_rejection_ = "non-finite pose or zero quaternion";
     if (warnings_.due("odometry: not finite"))
-      ROS_WARN("%s: odometry (%s) with a non-finite pose or a zero quaternion ignored (stamp %.3f)", name_.c_str(),
-               odom_topic_.c_str(), msg->header.stamp.toSec());
+      NODE_WARN(name_, "odometry (%s) with a non-finite pose or a zero quaternion ignored (stamp %.3f)",
+                odom_topic_.c_str(), msg->header.stamp.toSec());
     retryPending();
     return;
   }
   if (r == OdometryBuffer::AddResult::kClearedBackwards)
   {
     if (warnings_.due("odometry: jumped backwards"))
-      ROS_WARN("%s: odometry time jumped backwards (to %.3f): odometry buffer cleared", name_.c_str(),
-               msg->header.stamp.toSec());
+      NODE_WARN(name_, "odometry time jumped backwards (to %.3f): odometry buffer cleared", msg->header.stamp.toSec());
     for (auto& s : sources_)
       s.scan.reset();  // they belong to the other timeline
-    last_published_ = ros::Time();
     outputs_->reset();
-    tick_deferred_ = false;
   }
   if (r != OdometryBuffer::AddResult::kOutOfOrder)
     odom_newest_ = msg->header.stamp;
@@ -640,54 +628,22 @@ void MultiLaserScanMergerRos::publishTick(bool at_deadline)
 {
   // With a rate, the output is synchronised to the newest data there is: the newest scan, or
   // the newest odometry when it is newer (everything moved to it). Never now(): no pose is known
-  // for it. A tick with nothing newer than the last output publishes nothing.
-  bool any = false;
+  // for it. Whether it is published (nothing newer than the last output, scans of the newest
+  // stamp still due within sync_window) is outputs_' decision, as with publish_rate 0.
   ros::Time t_out;
   for (const auto& s : sources_)
     if (s.scan)
-    {
       t_out = std::max(t_out, s.scan->header.stamp);
-      any = true;
-    }
-  if (!any)
-  {
-    tick_deferred_ = false;
-    return;
-  }
   if (!odom_.empty())
     t_out = std::max(t_out, odom_newest_);
-  if (!last_published_.isZero() && t_out <= last_published_)
-  {
-    tick_deferred_ = false;
-    return;
-  }
-  // Scans of the newest scan's stamp still due from other sources: the tick waits for them, up
-  // to the end of the window that the first of them opened.
-  const double now = ros::SteadyTime::now().toSec();
-  const bool complete = outputs_->complete(now);
-  const StampSync::Decision& decision = outputs_->lastDecision();
-  if (!complete && !at_deadline)
-  {
-    if (!tick_deferred_)
-    {
-      tick_deferred_ = true;
-      tick_deadline_ = decision.deadline;
-      for (std::size_t j : decision.due)
-        ++sources_[j].waited_for;
-      armSyncTimer(decision.deadline);
-    }
-    return;
-  }
-  reportSync(t_out, decision, tick_deferred_);
-  tick_deferred_ = false;
-  mergeAndPublish(t_out);
+  outputs_->tick(static_cast<std::int64_t>(t_out.toNSec()), ros::SteadyTime::now().toSec(), at_deadline);
 }
 
 void MultiLaserScanMergerRos::warnNoRobotTransform(const std::string& error)
 {
   if (warnings_.due("no transform of the odometry child frame"))
-    ROS_WARN("%s: no transform '%s' -> '%s' (odometry child frame): motion compensation skipped: %s", name_.c_str(),
-             odom_child_frame_.c_str(), params_.output.frame.c_str(), error.c_str());
+    NODE_WARN(name_, "no transform '%s' -> '%s' (odometry child frame): motion compensation skipped: %s",
+              odom_child_frame_.c_str(), params_.output.frame.c_str(), error.c_str());
 }
 
 bool MultiLaserScanMergerRos::robotToOutput(Eigen::Isometry3d& out)
@@ -722,7 +678,8 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
     inputs_[i].present = static_cast<bool>(sources_[i].scan);
     if (inputs_[i].present)
     {
-      inputs_[i].scan = viewOf(*sources_[i].scan);
+      inputs_[i].scan = sources_[i].view;
+      inputs_[i].checked = true;  // handleScan did
       inputs_[i].output_T_sensor = sources_[i].output_T_sensor;
       inputs_[i].self_filter = &sources_[i].scan_self_filter;
     }
@@ -733,26 +690,28 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
   {
     odom = &odom_;
     if (t_out - odom_.newestTime() > kOdometryStale && warnings_.due("odometry stopped"))
-      ROS_WARN(
-        "%s: odometry stopped: the newest is %.2f s older than the output time; motion after it is not "
-        "compensated",
-        name_.c_str(), t_out - odom_.newestTime());
+      NODE_WARN(name_,
+                "odometry stopped: the newest is %.2f s older than the output time; motion after it is not "
+                "compensated",
+                t_out - odom_.newestTime());
   }
   else if (!params_.odom_topic.empty() && odom_.empty() && (odom_received_ == 0 || odom_rejected_ < odom_received_))
   {
     if (warnings_.due("no odometry yet", 10.0))
-      ROS_WARN("%s: no odometry yet on '%s': merging without motion compensation", name_.c_str(), odom_topic_.c_str());
+      NODE_WARN(name_, "no odometry yet on '%s': merging without motion compensation", odom_topic_.c_str());
   }
   else if (!params_.odom_topic.empty() && odom_.empty())
   {
     if (warnings_.due("no usable odometry", 10.0))
-      ROS_WARN(
-        "%s: none of the %zu odometry messages on '%s' was usable (last: %s): merging without motion "
-        "compensation",
-        name_.c_str(), odom_received_, odom_topic_.c_str(), odom_last_rejection_.c_str());
+      NODE_WARN(name_,
+                "none of the %zu odometry messages on '%s' was usable (last: %s): merging without motion "
+                "compensation",
+                odom_received_, odom_topic_.c_str(), odom_last_rejection_.c_str());
   }
-  core_->merge(inputs_, t_out, odom, odom != nullptr ? output_T_robot : Eigen::Isometry3d::Identity(), merged_,
-               status_);
+  // The core writes straight into the message to publish.
+  auto msg = boost::make_shared<sensor_msgs::LaserScan>();
+  core_->merge(inputs_, t_out, odom, odom != nullptr ? output_T_robot : Eigen::Isometry3d::Identity(), msg->ranges,
+               msg->intensities, status_);
   for (std::size_t i = 0; i < sources_.size(); ++i)
   {
     if (status_[i] != SourceStatus::kTimedOut)
@@ -765,11 +724,10 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
       s.last_timed_out_stamp = stamp;
     }
     if (s.warnings.due("timed out"))
-      ROS_WARN("%s: source '%s': newest scan is %.2f s old (timeout %.2f s): merged without it", name_.c_str(),
-               params_.sources[i].name.c_str(), t_out - stamp, params_.sources[i].timeout);
+      NODE_WARN(name_, "source '%s': newest scan is %.2f s old (timeout %.2f s): merged without it",
+                params_.sources[i].name.c_str(), t_out - stamp, params_.sources[i].timeout);
   }
 
-  auto msg = boost::make_shared<sensor_msgs::LaserScan>();
   msg->header.stamp = stamp;
   msg->header.frame_id = params_.output.frame;
   msg->angle_min = static_cast<float>(params_.output.angle_min);
@@ -780,9 +738,6 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
   msg->scan_time = params_.publish_rate > 0.0 ? static_cast<float>(1.0 / params_.publish_rate) : 0.0f;
   msg->range_min = static_cast<float>(params_.output.range_min);
   msg->range_max = static_cast<float>(params_.output.range_max);
-  msg->ranges = merged_.ranges;
-  msg->intensities = merged_.intensities;
-  last_published_ = stamp;
   ++outputs_published_;
   pub_.publish(sensor_msgs::LaserScan::ConstPtr(msg));  // zero-copy in a manager; not touched afterwards
 }
@@ -792,10 +747,7 @@ void MultiLaserScanMergerRos::sourceDiagnostics(std::size_t i, diagnostic_update
   std::lock_guard<std::mutex> lock(mutex_);
   SourceState& s = sources_[i];
   const SourceParams& sp = params_.sources[i];
-  const ros::WallTime now = ros::WallTime::now();
-  const double window = std::max(1e-3, (now - last_report_).toSec());
-  const double rate = static_cast<double>(s.received - s.received_at_last_report) / window;
-  // The report window is shared by all tasks: the last task (odometry) moves it on.
+  const double rate = s.rate.rate(s.received);
   // In seconds (double): no ros::Duration of stamps, which may be far apart.
   const double age = s.scan ? ros::Time::now().toSec() - s.scan->header.stamp.toSec() : -1.0;
   const std::size_t dropped_now = s.dropped - s.dropped_at_last_report;
@@ -856,9 +808,6 @@ void MultiLaserScanMergerRos::outputDiagnostics(diagnostic_updater::DiagnosticSt
 void MultiLaserScanMergerRos::odometryDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  for (auto& s : sources_)
-    s.received_at_last_report = s.received;
-  last_report_ = ros::WallTime::now();
   if (params_.odom_topic.empty())
   {
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "motion compensation disabled (odom_topic empty)");

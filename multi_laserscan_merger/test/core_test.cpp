@@ -774,7 +774,6 @@ TEST(MotionCompensation, HeadingNinetyDegreesDrivingForward)
   // The one on the left is now 0.1 m behind the robot's y axis.
   EXPECT_NEAR(out.ranges[binOf(std::atan2(2.0, -0.1))], std::hypot(2.0, 0.1), 1e-4);
   EXPECT_EQ(out.ranges[binOf(kPi / 2)], kInfF);
-  EXPECT_EQ(out.stamp, 0.15);
 
   // A sensor mounted elsewhere: same motion, same answer in the robot frame.
   core.merge({ input(s.view(0.05), pose(0.3, 0.0, 0.0, 0, 0, 0)) }, 0.15, &odom, Eigen::Isometry3d::Identity(), out,

@@ -177,8 +177,8 @@ private:
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0;
   std::string last_malformed_reason_, last_tf_reason_;
   laserscan_common::FrameIdNormaliser frame_id_;  // warns once about a leading '/'
-  WarningThrottle warnings_;          // per kind of fault: a missing transform, a late cloud, each malformed kind, ...
-  ConverterDiagnostics diagnostics_;  // last: its timer may call diagnose() as soon as it exists
+  WarningThrottle warnings_;     // per kind of fault: a missing transform, a late cloud, each malformed kind, ...
+  NodeDiagnostics diagnostics_;  // last: its timer may call diagnose() as soon as it exists
 };
 
 }  // namespace depth_filter_scan_converter

@@ -14,6 +14,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/node_log.hpp"
 #include "laserscan_common/throttle.hpp"
 
 namespace laserscan_common
@@ -91,8 +92,9 @@ private:
       if (!warned_.due(pair))
         return;
     }
-    ROS_WARN("%s: transform %s from %s on %s with stamp %s ignored: %s", name_.c_str(), pair.c_str(), authority.c_str(),
-             is_static ? "/tf_static" : "/tf", stampText(t.header.stamp.sec, t.header.stamp.nsec).c_str(), why.c_str());
+    NODE_WARN(name_, "transform %s from %s on %s with stamp %s ignored: %s", pair.c_str(), authority.c_str(),
+              is_static ? "/tf_static" : "/tf", stampText(t.header.stamp.sec, t.header.stamp.nsec).c_str(),
+              why.c_str());
   }
 
   tf2::BufferCore& buffer_;

@@ -14,6 +14,7 @@
 #include <tf2_ros/buffer.h>
 
 #include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/node_glue.hpp"
 #include "laserscan_common/throttle.hpp"
 #include "laserscan_common/transform_reader.hpp"
 #include "multi_laserscan_merger/merger_core.hpp"
@@ -44,6 +45,7 @@ private:
   struct SourceState
   {
     sensor_msgs::LaserScan::ConstPtr scan;  ///< latest accepted scan
+    ScanView view;                          ///< of `scan`, checked once on arrival
     Eigen::Isometry3d output_T_sensor = Eigen::Isometry3d::Identity();
     /// The robot's parts as configured for this source (unposed; empty: no self filter).
     laserscan_common::SelfFilter self_filter;
@@ -59,7 +61,8 @@ private:
     /// which ROS_WARN_THROTTLE's one timer per call site in the whole manager would.
     laserscan_common::WarningThrottle warnings;
     // Diagnostics.
-    std::size_t received = 0, received_at_last_report = 0;
+    std::size_t received = 0;
+    laserscan_common::RateMeter rate;  ///< scans per second between two reports
     std::size_t timeouts = 0, transform_failures = 0, malformed = 0;
     std::size_t dropped = 0, dropped_at_last_report = 0;  ///< malformed + transform failures
     std::string last_drop;                                ///< why the last scan was dropped
@@ -89,10 +92,10 @@ private:
                       laserscan_common::SelfFilter& posed, std::string& error);
   /// Keeps msg with the mount it was transformed with, unless an older scan than the one kept;
   /// with publish_rate 0 publishes (now or when the scans due at its stamp are in: outputs_).
-  void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg, const Eigen::Isometry3d& output_T_sensor,
-              laserscan_common::SelfFilter self_filter);
-  /// publish_rate > 0: publishes at the newest data unless scans of the newest stamp are still
-  /// due within sync_window (then the tick waits for them, never past the window's end).
+  void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg, const ScanView& view,
+              const Eigen::Isometry3d& output_T_sensor, laserscan_common::SelfFilter self_filter);
+  /// publish_rate > 0: asks outputs_ whether to publish at the newest data (a tick, a scan while
+  /// a tick waits, or the end of its window: `at_deadline`).
   void publishTick(bool at_deadline);
   void syncTimerCallback();
   void armSyncTimer(double deadline);
@@ -130,13 +133,12 @@ private:
 
   std::vector<SourceInput> inputs_;  ///< reused across merges
   std::vector<SourceStatus> status_;
-  MergedScan merged_;
-  ros::Time last_published_;  ///< zero: nothing published on this timeline yet
   /// A source's scan as it goes into the merge: the message, its mount at the scan's stamp and
   /// the robot's parts posed for it.
   struct ScanInMerge
   {
     sensor_msgs::LaserScan::ConstPtr msg;
+    ScanView view;  ///< of msg, checked once on arrival
     Eigen::Isometry3d output_T_sensor;
     laserscan_common::SelfFilter self_filter;
   };
@@ -146,19 +148,15 @@ private:
   /// sees, and never stalls while a simulated clock stands still (a bag paused or ended); a bag
   /// played faster than real time still delivers the scans of one stamp close together in wall time.
   ros::SteadyTimer sync_timer_;
-  bool tick_deferred_ = false;  ///< publish_rate > 0: a tick waits for scans of its stamp
-  double tick_deadline_ = 0.0;  ///< until then (s, steady clock)
   std::size_t outputs_published_ = 0, outputs_waited_ = 0, outputs_incomplete_ = 0;
   std::size_t incomplete_at_last_report_ = 0;
   std::string last_incomplete_;  ///< the last output published without a due scan, and whose
   ros::Time last_now_;
-  ros::WallTime last_report_;
 
   ros::Publisher pub_;
   ros::Subscriber odom_sub_;
   ros::Timer publish_timer_;
-  ros::WallTimer diagnostics_timer_;
-  std::unique_ptr<diagnostic_updater::Updater> updater_;
+  std::unique_ptr<laserscan_common::NodeDiagnostics> diagnostics_;
 };
 
 }  // namespace multi_laserscan_merger
