@@ -248,6 +248,30 @@ TEST(ScanValidation, MalformedScansGiveReasons)
     EXPECT_EQ(r, kInfF);
 }
 
+// A scan the caller checked once on arrival (the ROS glue) merges as an unchecked one, and the
+// overload that writes into the caller's vectors (the outgoing message's) gives the same output,
+// its intensities emptied when no source has any.
+TEST(ScanValidation, CheckedInputsAndWritingIntoTheMessage)
+{
+  MergerCore core(oneSource());
+  Scan s{ std::vector<float>(360, 3.0f), {} };
+  s.ranges[10] = 1.5f;
+  SourceInput unchecked = input(s.view(0.0));
+  ASSERT_EQ(scanFault(unchecked.scan), nullptr);
+  SourceInput checked = unchecked;
+  checked.checked = true;
+  MergedScan out;
+  std::vector<SourceStatus> st;
+  core.merge({ unchecked }, 0.0, nullptr, Eigen::Isometry3d::Identity(), out, st);
+  ASSERT_EQ(st[0], SourceStatus::kUsed);
+  std::vector<float> ranges, intensities(5, 1.0f);
+  core.merge({ checked }, 0.0, nullptr, Eigen::Isometry3d::Identity(), ranges, intensities, st);
+  EXPECT_EQ(st[0], SourceStatus::kUsed);
+  ASSERT_EQ(ranges.size(), core.beamCount());
+  EXPECT_EQ(ranges, out.ranges);
+  EXPECT_TRUE(intensities.empty());
+}
+
 // ---------------------------------------------------------------- remapping
 
 TEST(Remap, From360To1440AndBack)
