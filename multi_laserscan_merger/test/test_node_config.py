@@ -634,10 +634,10 @@ def test_one_sources_warning_hides_no_other_sources_or_mergers_in_a_manager(ros_
                 env=ros_env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         burst = 5
         ranges_fault = 'malformed scan dropped: ranges length does not match'
-        expected = [["/merger_sa: source 'front'", ranges_fault],
-                    ["/merger_sa: source 'front'", 'malformed scan dropped: empty frame_id'],
-                    ["/merger_sa: source 'rear'", ranges_fault],
-                    ["/merger_sb: source 'front'", ranges_fault]]
+        expected = [["[/merger_sa] source 'front'", ranges_fault],
+                    ["[/merger_sa] source 'front'", 'malformed scan dropped: empty frame_id'],
+                    ["[/merger_sa] source 'rear'", ranges_fault],
+                    ["[/merger_sb] source 'front'", ranges_fault]]
         feed = subprocess.run(['/usr/bin/python3', '-c', SHARED_MANAGER_FEED, str(burst), json.dumps(expected)],
                               env=ros_env, capture_output=True, text=True, timeout=180)
         alive = manager.poll() is None
@@ -658,5 +658,5 @@ def test_one_sources_warning_hides_no_other_sources_or_mergers_in_a_manager(ros_
     for parts in expected:  # each reported at once, none hidden by another's throttle
         assert any(all(p in w for p in parts) for w in warnings), (parts, warnings)
     # Still throttled per source and fault: the burst is not one warning per scan.
-    front = [w for w in warnings if "/merger_sa: source 'front'" in w and ranges_fault in w]
+    front = [w for w in warnings if "[/merger_sa] source 'front'" in w and ranges_fault in w]
     assert 1 <= len(front) < burst, warnings
