@@ -248,6 +248,20 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   sync_timer_ = nh_.createSteadyTimer(
     ros::WallDuration(1.0), [this](const ros::SteadyTimerEvent&) { syncTimerCallback(); }, true, false);
   tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, name_);
+  for (std::size_t i = 0; i < sources_.size(); ++i)
+  {
+    // A scan waits for its mount and for the robot's parts it filters out.
+    std::vector<std::string> targets{ params_.output.frame };
+    targets.insert(targets.end(), sources_[i].self_filter.frames().begin(), sources_[i].self_filter.frames().end());
+    sources_[i].wait = std::make_unique<laserscan_common::TransformWait<sensor_msgs::LaserScan>>(
+      tf_buffer_, targets, 1, nh_,
+      [this, i](const sensor_msgs::LaserScan::ConstPtr& msg, const ros::Time& received) {
+        transformArrived(i, msg, received, nullptr);
+      },
+      [this, i](const sensor_msgs::LaserScan::ConstPtr& msg, const char* why) {
+        transformArrived(i, msg, ros::Time(), why);
+      });
+  }
   last_now_ = ros::Time::now();
 
   diagnostics_ = std::make_unique<laserscan_common::NodeDiagnostics>(nh_, private_nh_);
@@ -312,7 +326,7 @@ void MultiLaserScanMergerRos::clearAll(const std::string& why, const std::string
 bool MultiLaserScanMergerRos::tryTransform(const std::string& frame, const ros::Time& stamp,
                                            Eigen::Isometry3d& output_T_sensor, std::string& error)
 {
-  // Never blocks: canTransform without a timeout, the scan waits as pending instead. tf2 works
+  // Never blocks: canTransform without a timeout, the scan waits in its source's wait instead. tf2 works
   // with ros::Time and ros::Duration internally: whatever it throws is this scan's failure.
   try
   {
@@ -420,7 +434,7 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
                 "ranges, %zu intensities, angles %g..%g step %g)",
                 sp.name.c_str(), sp.topic.c_str(), fault, stamp.c_str(), now.toSec(), msg->header.frame_id.c_str(),
                 msg->ranges.size(), msg->intensities.size(), msg->angle_min, msg->angle_max, msg->angle_increment);
-    retryPending();
+    expirePending();
     return;
   }
   const std::string frame = s.frame_id(msg->header.frame_id);
@@ -455,40 +469,69 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
     s.pending_frame = frame;
     s.pending_since = ros::WallTime::now();
     s.pending_error = error;
+    // With a self filter on a deskewed source the parts are posed at the middle beam's time
+    // (poseSelfFilter): the scan also waits for that.
+    ros::Duration extent;
+    if (!s.self_filter.empty() && sp.deskew && msg->ranges.size() > 1 && msg->time_increment > 0.0f)
+      extent = ros::Duration(0.5 * static_cast<double>(msg->ranges.size() - 1) * msg->time_increment);
+    s.wait->wait(msg, ros::Time(s.pending_since.sec, s.pending_since.nsec), extent);
   }
-  retryPending();
+  expirePending();
 }
 
-void MultiLaserScanMergerRos::retryPending()
+void MultiLaserScanMergerRos::transformArrived(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg,
+                                               const ros::Time& received, const char* why)
 {
-  for (std::size_t i = 0; i < sources_.size(); ++i)
+  std::lock_guard<std::mutex> lock(mutex_);
+  SourceState& s = sources_[i];
+  try
   {
-    SourceState& s = sources_[i];
-    if (!s.pending)
-      continue;
-    const sensor_msgs::LaserScan::ConstPtr msg = s.pending;
-    std::string error;
+    checkTimeJump();  // may clear it
+    if (msg != s.pending)
+      return;  // given up on already (and counted then)
+    std::string error = why ? why : "";
     Eigen::Isometry3d output_T_sensor;
     laserscan_common::SelfFilter posed;
-    if (tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor, error) &&
+    if (!why && (ros::WallTime::now().toSec() - received.toSec()) <= kTransformWait &&
+        tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor, error) &&
         poseSelfFilter(i, *msg, s.pending_frame, posed, error))
     {
       s.pending.reset();
       accept(i, msg, viewOf(*msg), output_T_sensor, std::move(posed));
     }
-    else if ((ros::WallTime::now() - s.pending_since).toSec() > kTransformWait)
-    {
-      ++s.transform_failures;
-      drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "' in time: " + error);
-      if (s.warnings.due("no transform in time"))
-        NODE_WARN(name_, "source '%s': no transform '%s' -> '%s' at %.3f within %.1f s, scan dropped: %s",
-                  params_.sources[i].name.c_str(), s.pending_frame.c_str(), params_.output.frame.c_str(),
-                  msg->header.stamp.toSec(), kTransformWait, error.c_str());
-      s.pending.reset();
-    }
     else
-      s.pending_error = error;
+      dropPending(i, error.empty() ? s.pending_error : error);  // empty: it came after kTransformWait
+    expirePending();
   }
+  catch (const std::exception& e)  // as scanCallback: no message may take the manager down
+  {
+    ++s.malformed;
+    drop(i, std::string("unexpected error: ") + e.what());
+    if (s.warnings.due("unexpected error"))
+      NODE_ERROR(name_, "source '%s' (%s): scan dropped after an unexpected error (please report): %s",
+                 params_.sources[i].name.c_str(), params_.sources[i].topic.c_str(), e.what());
+  }
+}
+
+void MultiLaserScanMergerRos::expirePending()
+{
+  // Only the deadline: the transforms' arrival is the wait's to notice (transformArrived).
+  const ros::WallTime now = ros::WallTime::now();
+  for (std::size_t i = 0; i < sources_.size(); ++i)
+    if (sources_[i].pending && (now - sources_[i].pending_since).toSec() > kTransformWait)
+      dropPending(i, sources_[i].pending_error);
+}
+
+void MultiLaserScanMergerRos::dropPending(std::size_t i, const std::string& error)
+{
+  SourceState& s = sources_[i];
+  ++s.transform_failures;
+  drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "' in time: " + error);
+  if (s.warnings.due("no transform in time"))
+    NODE_WARN(name_, "source '%s': no transform '%s' -> '%s' at %.3f within %.1f s, scan dropped: %s",
+              params_.sources[i].name.c_str(), s.pending_frame.c_str(), params_.output.frame.c_str(),
+              s.pending->header.stamp.toSec(), kTransformWait, error.c_str());
+  s.pending.reset();
 }
 
 void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg, const ScanView& view,
@@ -586,7 +629,7 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
     if (warnings_.due(std::string("odometry: ") + fault))
       NODE_WARN(name_, "odometry (%s) with stamp %s ignored: %s (clock %.3f)", odom_topic_.c_str(), stamp.c_str(),
                 fault, now.toSec());
-    retryPending();
+    expirePending();
     return;
   }
   const auto& p = msg->pose.pose;
@@ -599,7 +642,7 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
     if (warnings_.due("odometry: not finite"))
       NODE_WARN(name_, "odometry (%s) with a non-finite pose or a zero quaternion ignored (stamp %.3f)",
                 odom_topic_.c_str(), msg->header.stamp.toSec());
-    retryPending();
+    expirePending();
     return;
   }
   if (r == OdometryBuffer::AddResult::kClearedBackwards)
@@ -613,14 +656,14 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
   if (r != OdometryBuffer::AddResult::kOutOfOrder)
     odom_newest_ = msg->header.stamp;
   odom_child_frame_ = odom_child_frame_id_(msg->child_frame_id);
-  retryPending();
+  expirePending();
 }
 
 void MultiLaserScanMergerRos::timerCallback(const ros::TimerEvent&)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   checkTimeJump();
-  retryPending();
+  expirePending();
   publishTick(false);
 }
 

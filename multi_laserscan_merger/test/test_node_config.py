@@ -554,6 +554,16 @@ scan(lidar, 'lidar', T + rospy.Duration(0.2), -0.5, 0.5)
 time.sleep(2.5)
 print('transform_failures', status.get('transform failures'))
 print('last_drop', status.get('last drop reason', '').replace(' ', '_'))
+# A scan whose transform comes after it waits for it (laserscan_common's TransformWait) and is
+# merged once it is there, with no further scan or odometry to retry it.
+before = len(merged)
+scan(lidar, 'lidar', T + rospy.Duration(2.0), -0.5, 0.5)
+time.sleep(0.05)
+tf.publish(TFMessage(transforms=[mount(T + rospy.Duration(2.1), 1.0)]))
+deadline = time.time() + 5.0
+while len(merged) == before and time.time() < deadline:
+    time.sleep(0.02)
+print('after_its_transform', len(merged) - before, merged[-1].header.stamp == T + rospy.Duration(2.0))
 sys.stdout.flush()
 '''
 
@@ -578,6 +588,8 @@ def test_a_discarded_older_scan_leaves_the_kept_scans_mount(ros_env):
     # A pending scan superseded by a newer one is counted, with the reason.
     assert words[words.index('transform_failures') + 1] == '1', feed.stdout + out
     assert 'before_a_newer_scan_was_merged' in words[words.index('last_drop') + 1], feed.stdout + out
+    # A scan that waited for its transform is merged when the transform comes.
+    assert words[words.index('after_its_transform') + 1:][:2] == ['1', 'True'], feed.stdout + out
 
 
 SHARED_MANAGER_FEED = r'''

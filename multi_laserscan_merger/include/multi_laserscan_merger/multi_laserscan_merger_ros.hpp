@@ -17,6 +17,7 @@
 #include "laserscan_common/node_glue.hpp"
 #include "laserscan_common/throttle.hpp"
 #include "laserscan_common/transform_reader.hpp"
+#include "laserscan_common/transform_wait.hpp"
 #include "multi_laserscan_merger/merger_core.hpp"
 #include "multi_laserscan_merger/stamp_sync.hpp"
 
@@ -52,8 +53,12 @@ private:
     /// The same, posed in the sensor's frame for `scan` (each scan carries its own poses: with
     /// sync_window a newer scan may arrive before an older one is merged).
     laserscan_common::SelfFilter scan_self_filter;
-    sensor_msgs::LaserScan::ConstPtr pending;  ///< waiting for its transform
-    std::string pending_frame;                 ///< its frame id as tf2 wants it
+    /// The scans waiting for their transforms (one deep: a newer scan replaces a waiting one).
+    std::unique_ptr<laserscan_common::TransformWait<sensor_msgs::LaserScan>> wait;
+    /// The scan waiting for its transform; one that comes back from `wait` but is no longer
+    /// this one was given up on (replaced, superseded, cleared) and is ignored.
+    sensor_msgs::LaserScan::ConstPtr pending;
+    std::string pending_frame;  ///< its frame id as tf2 wants it
     ros::WallTime pending_since;
     std::string pending_error;
     laserscan_common::FrameIdNormaliser frame_id;  ///< reports a leading '/' once per source
@@ -102,7 +107,14 @@ private:
   /// Counts an output that waited or misses due scans, and names the late sources (throttled).
   void reportSync(const ros::Time& stamp, const StampSync::Decision& decision, bool waited);
   void drop(std::size_t source, std::string why);
-  void retryPending();
+  /// A scan back from its source's wait: its transforms came (at `received`, wall time), or `why`
+  /// they will not (null when they came).
+  void transformArrived(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg, const ros::Time& received,
+                        const char* why);
+  /// Drops a waiting scan that waited longer than kTransformWait (its transforms did not come).
+  void expirePending();
+  /// Counts and warns about the waiting scan of `source` whose transforms did not come in time.
+  void dropPending(std::size_t source, const std::string& error);
   /// t_out is the stamp of a scan or an odometry message: published bit for bit.
   void mergeAndPublish(const ros::Time& t_out);
   bool robotToOutput(Eigen::Isometry3d& out);
