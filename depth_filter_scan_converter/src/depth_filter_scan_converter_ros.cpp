@@ -259,9 +259,10 @@ std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& head
   const laserscan_common::StampLimits limits{
     laserscan_common::kMaxStampAheadNs, params_.transform.tf_buffer_duration + params_.transform.transform_tolerance
   };
-  if (const char* fault = laserscan_common::stampFault(header.stamp.sec, header.stamp.nsec, 0,
-                                                       laserscan_common::StampUse::kLookup, limits))
-    return std::string(fault) + " (stamp " + stamp() + ")";
+  if (const std::string fault = laserscan_common::stampFault(header.stamp.sec, header.stamp.nsec, 0,
+                                                             laserscan_common::StampUse::kLookup, limits);
+      !fault.empty())
+    return fault + " (stamp " + stamp() + ")";
   frame_id_(header.frame_id);
   return {};
 }

@@ -67,7 +67,7 @@ std::size_t expectedBeamCount(const ScanView& s)
   return static_cast<std::size_t>(std::lround(steps)) + 1;
 }
 
-const char* scanFault(const ScanView& s)
+std::string scanFault(const ScanView& s)
 {
   if (!std::isfinite(s.stamp))
     return "non-finite stamp";
@@ -95,7 +95,7 @@ const char* scanFault(const ScanView& s)
     return "ranges length does not match round((angle_max - angle_min) / angle_increment) + 1";
   if (s.n_intensities != 0 && (s.intensities == nullptr || s.n_intensities != s.n_ranges))
     return "intensities length is neither 0 nor the ranges length";
-  return nullptr;
+  return {};
 }
 
 void remapResolution(const std::vector<float>& in, std::size_t n_new, std::vector<float>& out)
@@ -176,7 +176,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     const SourceInput& in = inputs[s];
     if (!in.present)
       continue;
-    if (!in.checked && scanFault(in.scan) != nullptr)
+    if (!in.checked && !scanFault(in.scan).empty())
       status[s] = SourceStatus::kInvalid;
     else if (t_out - in.scan.stamp > params_.sources[s].timeout)
       status[s] = SourceStatus::kTimedOut;

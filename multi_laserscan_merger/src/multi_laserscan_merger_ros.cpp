@@ -323,41 +323,36 @@ void MultiLaserScanMergerRos::clearAll(const std::string& why, const std::string
   outputs_->reset();
 }
 
-bool MultiLaserScanMergerRos::tryTransform(const std::string& frame, const ros::Time& stamp,
-                                           Eigen::Isometry3d& output_T_sensor, std::string& error)
+std::string MultiLaserScanMergerRos::tryTransform(const std::string& frame, const ros::Time& stamp,
+                                                  Eigen::Isometry3d& output_T_sensor)
 {
+  std::string error;
   // Never blocks: canTransform without a timeout, the scan waits in its source's wait instead. tf2 works
   // with ros::Time and ros::Duration internally: whatever it throws is this scan's failure.
   try
   {
     if (!tf_buffer_.canTransform(params_.output.frame, frame, stamp, &error))
     {
-      if (error.empty())
-        error = "tf2 gave no reason";
-      return false;
+      return error.empty() ? "tf2 gave no reason" : error;
     }
     output_T_sensor = tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, stamp));
     // Finite links can still compose to an infinite chain: such a mount would move every return away.
     if (!output_T_sensor.matrix().allFinite())
-    {
-      error = "the transform is not finite";
-      return false;
-    }
+      return "the transform is not finite";
   }
   catch (const std::exception& e)
   {
-    error = e.what();
-    return false;
+    return e.what();
   }
-  return true;
+  return {};
 }
 
-bool MultiLaserScanMergerRos::poseSelfFilter(std::size_t i, const sensor_msgs::LaserScan& msg, const std::string& frame,
-                                             laserscan_common::SelfFilter& posed, std::string& error)
+std::string MultiLaserScanMergerRos::poseSelfFilter(std::size_t i, const sensor_msgs::LaserScan& msg,
+                                                    const std::string& frame, laserscan_common::SelfFilter& posed)
 {
   const SourceState& s = sources_[i];
   if (s.self_filter.empty())
-    return true;
+    return {};
   posed = s.self_filter;
   // The arm moves during a scan; one pose per scan (not per beam: a few shapes per scan, and
   // between a lidar's 0.1 s scans the arm moves a few cm): at the middle beam's time when the
@@ -369,19 +364,15 @@ bool MultiLaserScanMergerRos::poseSelfFilter(std::size_t i, const sensor_msgs::L
   try
   {
     for (const std::string& shape_frame : posed.frames())
-      if (!tf_buffer_.canTransform(frame, shape_frame, t, &error))
-      {
-        error = "self filter: no transform '" + shape_frame + "' -> '" + frame + "': " + error;
-        return false;
-      }
+      if (std::string error; !tf_buffer_.canTransform(frame, shape_frame, t, &error))
+        return "self filter: no transform '" + shape_frame + "' -> '" + frame + "': " + error;
     laserscan_common::setFramePosesAt(tf_buffer_, frame, t, posed);
   }
   catch (const std::exception& e)
   {
-    error = e.what();
-    return false;
+    return e.what();
   }
-  return true;
+  return {};
 }
 
 void MultiLaserScanMergerRos::drop(std::size_t i, std::string why)
@@ -416,13 +407,13 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
   ++s.received;
   const ScanView view = viewOf(*msg);
   const ros::Time now = ros::Time::now();
-  const char* fault = scanFault(view);
-  if (fault == nullptr && laserscan_common::tf2FrameId(msg->header.frame_id).empty())
+  std::string fault = scanFault(view);
+  if (fault.empty() && laserscan_common::tf2FrameId(msg->header.frame_id).empty())
     fault = "empty frame_id";
-  if (fault == nullptr)
+  if (fault.empty())
     fault = laserscan_common::stampFault(msg->header.stamp.sec, msg->header.stamp.nsec,
                                          static_cast<std::int64_t>(now.toNSec()));
-  if (fault != nullptr)
+  if (!fault.empty())
   {
     ++s.malformed;
     const std::string stamp = laserscan_common::stampText(msg->header.stamp.sec, msg->header.stamp.nsec);
@@ -432,18 +423,21 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
       NODE_WARN(name_,
                 "source '%s' (%s): malformed scan dropped: %s (stamp %s, clock %.3f, frame_id '%s', %zu "
                 "ranges, %zu intensities, angles %g..%g step %g)",
-                sp.name.c_str(), sp.topic.c_str(), fault, stamp.c_str(), now.toSec(), msg->header.frame_id.c_str(),
-                msg->ranges.size(), msg->intensities.size(), msg->angle_min, msg->angle_max, msg->angle_increment);
+                sp.name.c_str(), sp.topic.c_str(), fault.c_str(), stamp.c_str(), now.toSec(),
+                msg->header.frame_id.c_str(), msg->ranges.size(), msg->intensities.size(), msg->angle_min,
+                msg->angle_max, msg->angle_increment);
     expirePending();
     return;
   }
   const std::string frame = s.frame_id(msg->header.frame_id);
   if (s.scan && view.stamp < s.scan->header.stamp.toSec() - 1.0)
     clearAll("source '" + sp.name + "' stamps jumped backwards", "stamps of source " + sp.name + " jumped backwards");
-  std::string error;
   Eigen::Isometry3d output_T_sensor;
   laserscan_common::SelfFilter posed;
-  if (tryTransform(frame, msg->header.stamp, output_T_sensor, error) && poseSelfFilter(i, *msg, frame, posed, error))
+  std::string error = tryTransform(frame, msg->header.stamp, output_T_sensor);
+  if (error.empty())
+    error = poseSelfFilter(i, *msg, frame, posed);
+  if (error.empty())
   {
     if (s.pending)
     {
@@ -489,12 +483,15 @@ void MultiLaserScanMergerRos::transformArrived(std::size_t i, const sensor_msgs:
     checkTimeJump();  // may clear it
     if (msg != s.pending)
       return;  // given up on already (and counted then)
-    std::string error = why ? why : "";
     Eigen::Isometry3d output_T_sensor;
     laserscan_common::SelfFilter posed;
-    if (!why && (ros::WallTime::now().toSec() - received.toSec()) <= kTransformWait &&
-        tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor, error) &&
-        poseSelfFilter(i, *msg, s.pending_frame, posed, error))
+    std::string error = why ? why : "";
+    const bool in_time = (ros::WallTime::now().toSec() - received.toSec()) <= kTransformWait;
+    if (error.empty() && in_time)
+      error = tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor);
+    if (error.empty() && in_time)
+      error = poseSelfFilter(i, *msg, s.pending_frame, posed);
+    if (error.empty() && in_time)
     {
       s.pending.reset();
       accept(i, msg, viewOf(*msg), output_T_sensor, std::move(posed));
@@ -620,15 +617,16 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
   ++odom_received_;
   last_odom_arrival_ = ros::WallTime::now();
   const ros::Time now = ros::Time::now();
-  if (const char* fault = laserscan_common::stampFault(msg->header.stamp.sec, msg->header.stamp.nsec,
-                                                       static_cast<std::int64_t>(now.toNSec())))
+  if (const std::string fault = laserscan_common::stampFault(msg->header.stamp.sec, msg->header.stamp.nsec,
+                                                             static_cast<std::int64_t>(now.toNSec()));
+      !fault.empty())
   {
     ++odom_rejected_;
     const std::string stamp = laserscan_common::stampText(msg->header.stamp.sec, msg->header.stamp.nsec);
-    odom_last_rejection_ = std::string(fault) + " (stamp " + stamp + ")";
+    odom_last_rejection_ = fault + " (stamp " + stamp + ")";
     if (warnings_.due(std::string("odometry: ") + fault))
       NODE_WARN(name_, "odometry (%s) with stamp %s ignored: %s (clock %.3f)", odom_topic_.c_str(), stamp.c_str(),
-                fault, now.toSec());
+                fault.c_str(), now.toSec());
     expirePending();
     return;
   }

@@ -157,7 +157,7 @@ void expectMergeInvariants(const MergerCore& core, const std::vector<SourceInput
   for (std::size_t s = 0; s < status.size(); ++s)
     if (inputs[s].present)
     {
-      ASSERT_EQ(status[s] == SourceStatus::kInvalid, scanFault(inputs[s].scan) != nullptr) << "source " << s;
+      ASSERT_EQ(status[s] == SourceStatus::kInvalid, !scanFault(inputs[s].scan).empty()) << "source " << s;
     }
     else
     {

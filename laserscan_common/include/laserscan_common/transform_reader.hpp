@@ -48,9 +48,9 @@ public:
       std::string why;
       {
         std::lock_guard<std::mutex> lock(mutex_);
-        if (const char* fault = gate_.fault(t, is_static, now, max_ahead))
+        why = gate_.fault(t, is_static, now, max_ahead);
+        if (!why.empty())
         {
-          why = fault;
           const std::string parent = gate_.staticParent(t.child_frame_id);
           if (!is_static && !parent.empty() && parent != tf2FrameId(t.header.frame_id))
             why += " (its static parent is '" + parent + "')";

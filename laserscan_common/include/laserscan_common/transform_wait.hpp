@@ -66,12 +66,12 @@ public:
 
   /// Whether every transform of `header` (its frame_id as tf2 takes it) is there now: the usual
   /// case, where the message need not wait (nor take the filter's extra trip through the queue).
-  bool ready(const std_msgs::Header& header, std::string* error = nullptr) const
+  bool ready(const std_msgs::Header& header) const
   {
     const tf2::BufferCore& transforms = buffer_;
     const std::string frame = tf2FrameId(header.frame_id);
     for (const std::string& target : targets_)
-      if (!transforms.canTransform(target, frame, header.stamp, error))
+      if (!transforms.canTransform(target, frame, header.stamp))
         return false;
     return true;
   }

@@ -37,9 +37,9 @@ struct ScanView
 /// A scan whose beams span more than this (|time_increment| * beams, s) is malformed.
 constexpr double kMaxScanDuration = 60.0;
 
-/// nullptr when the scan is usable, otherwise a static description of the fault
-/// (no allocation: also called on the hot path).
-const char* scanFault(const ScanView& scan);
+/// "" when the scan is usable, otherwise what is wrong with it (the one error convention:
+/// CONTRIBUTING.md; a usable scan's empty string allocates nothing).
+std::string scanFault(const ScanView& scan);
 
 /// True when the point (x, y) lies inside the polygon (crossing number; any simple polygon).
 bool insidePolygon(const std::vector<std::array<double, 2>>& polygon, double x, double y);

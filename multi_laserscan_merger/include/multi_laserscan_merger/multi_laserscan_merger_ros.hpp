@@ -87,14 +87,13 @@ private:
   void checkTimeJump();
   /// Warns (throttled per `kind` of cause) and clears every buffer.
   void clearAll(const std::string& why, const std::string& kind);
-  /// output_T_sensor at stamp; false (with the reason in error) when tf2 has none or it is not finite.
-  bool tryTransform(const std::string& frame, const ros::Time& stamp, Eigen::Isometry3d& output_T_sensor,
-                    std::string& error);
+  /// output_T_sensor at stamp; the reason when tf2 has none or it is not finite ("" when found).
+  std::string tryTransform(const std::string& frame, const ros::Time& stamp, Eigen::Isometry3d& output_T_sensor);
   /// Poses a copy of the source's self filter (if any) in the scan's frame into `posed`: at the
-  /// scan's stamp, or at its middle beam's time when the source deskews. false (with the reason)
-  /// while a shape frame's transform is not there: the scan waits for it as for its own.
-  bool poseSelfFilter(std::size_t source, const sensor_msgs::LaserScan& msg, const std::string& frame,
-                      laserscan_common::SelfFilter& posed, std::string& error);
+  /// scan's stamp, or at its middle beam's time when the source deskews. The reason ("" when
+  /// posed) while a shape frame's transform is not there: the scan waits for it as for its own.
+  std::string poseSelfFilter(std::size_t source, const sensor_msgs::LaserScan& msg, const std::string& frame,
+                             laserscan_common::SelfFilter& posed);
   /// Keeps msg with the mount it was transformed with, unless an older scan than the one kept;
   /// with publish_rate 0 publishes (now or when the scans due at its stamp are in: outputs_).
   void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg, const ScanView& view,
