@@ -62,8 +62,8 @@ def test_unknown_parameter_is_named_once_with_the_closest_known_name(master, kin
     status, out = run(master, kind, name, dict(good, **{typo: 0.5, "my_block": {"a": 1}}))
     assert status is None, out  # it started: a whole number written 2.0 is an int
     assert out.count("unknown parameter") == 2, out
-    assert out.count("/%s: unknown parameter '%s' (did you mean '%s'?), ignored" % (name, typo, meant)) == 1, out
-    assert out.count("/%s: unknown parameter 'my_block', ignored" % name) == 1, out
+    assert out.count("[/%s] unknown parameter '%s' (did you mean '%s'?), ignored" % (name, typo, meant)) == 1, out
+    assert out.count("[/%s] unknown parameter 'my_block', ignored" % name) == 1, out
 
 
 @pytest.mark.parametrize("kind", sorted(NODES))

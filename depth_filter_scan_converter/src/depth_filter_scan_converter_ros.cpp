@@ -14,23 +14,12 @@
 
 #include "depth_filter_scan_converter/cloud_view.hpp"
 #include "laserscan_common/self_filter_parameters.hpp"
+#include "laserscan_common/node_log.hpp"
 
 namespace depth_filter_scan_converter
 {
 namespace
 {
-const char* failureText(tf2_ros::filter_failure_reasons::FilterFailureReason reason)
-{
-  switch (reason)
-  {
-    case tf2_ros::filter_failure_reasons::OutTheBack:
-      return "the transform is older than the tf buffer (OutTheBack)";
-    case tf2_ros::filter_failure_reasons::EmptyFrameID:  // caught before the filter; kept for completeness
-      return "the cloud has an empty frame_id";
-    default:
-      return "no transform arrived before newer clouds pushed it out of the queue";
-  }
-}
 // dynamic_reconfigure's values travel by name: each parameter of the .cfg is the field of
 // Parameters' table with that name (test/test_parameter_tables.py checks name, type, default).
 template <class T>
@@ -92,12 +81,14 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
     tf_buffer_(ros::Duration(params_.transform.tf_buffer_duration)),
     lazy_([this] { subscribeInput(); }, [this] { unsubscribeInput(); }),
     projector_(params_),
-    diagnostics_(nh, private_nh, [this](diagnostic_updater::DiagnosticStatusWrapper& status) { diagnose(status); })
+    diagnostics_(nh, private_nh, "Input and processing",
+                 [this](diagnostic_updater::DiagnosticStatusWrapper& status) { diagnose(status); })
 {
   frame_id_ = laserscan_common::FrameIdNormaliser([this](const std::string& frame_id, const std::string& used) {
     // tf2_ros's MessageFilter strips it too; say it once, then use the frame without it.
-    ROS_WARN("[%s] frame_id '%s' on %s starts with '/', which tf2 does not accept: using '%s' (said once)",
-             private_nh_.getNamespace().c_str(), frame_id.c_str(), input_topic_.c_str(), used.c_str());
+    NODE_WARN(private_nh_.getNamespace(),
+              "frame_id '%s' on %s starts with '/', which tf2 does not accept: using '%s' (said once)",
+              frame_id.c_str(), input_topic_.c_str(), used.c_str());
   });
   tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, private_nh_.getNamespace());
   std::vector<std::string> self_filter_warnings;
@@ -105,37 +96,35 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
     laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(reader_), nh_, self_filter_warnings);
   reader_.warnUnknown();
   for (const std::string& warning : self_filter_warnings)
-    ROS_WARN("[%s] self filter: %s", private_nh_.getNamespace().c_str(), warning.c_str());
+    NODE_WARN(private_nh_.getNamespace(), "self filter: %s", warning.c_str());
   // A message waits for its own transform and for those of the robot's parts at its stamp.
   tf_targets_ = { params_.transform.reference_frame };
   tf_targets_.insert(tf_targets_.end(), self_filter_.frames().begin(), self_filter_.frames().end());
   if (!self_filter_.empty())
-    ROS_INFO("[%s] self filter: %zu shapes on %zu frames", private_nh_.getNamespace().c_str(),
-             self_filter_.shapes().size(), self_filter_.frames().size());
+    NODE_INFO(private_nh_.getNamespace(), "self filter: %zu shapes on %zu frames", self_filter_.shapes().size(),
+              self_filter_.frames().size());
 
-  // Messages wait in the tf filter (never in a callback) until their transform is there. The
-  // filter delivers through nh's callback queue, so processing runs in the node's own threads.
+  // Messages wait for their transforms in laserscan_common's TransformWait, which delivers
+  // through nh's callback queue: processing runs in the node's own threads.
   const auto queue = static_cast<std::uint32_t>(queue_size_);
   if (input_ == DepthInput::Cloud)
-  {
-    cloud_filter_ =
-      std::make_unique<tf2_ros::MessageFilter<Cloud>>(tf_buffer_, params_.transform.reference_frame, queue, nh_);
-    cloud_filter_->setTargetFrames(tf_targets_);
-    cloud_filter_->registerCallback([this](const Cloud::ConstPtr& cloud) { process(cloud); });
-    cloud_filter_->registerFailureCallback(
-      [this](const Cloud::ConstPtr& cloud, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
-        transformFailed(cloud, reason);
-      });
-  }
+    cloud_wait_ = std::make_unique<laserscan_common::TransformWait<Cloud>>(
+      tf_buffer_, tf_targets_, queue, nh_,
+      [this](const Cloud::ConstPtr& cloud, const ros::Time& received) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        convert(*cloud, cloud->data.data(), cloud->data.size(), nullptr, received);
+      },
+      [this](const Cloud::ConstPtr& cloud, const char* why) { transformFailed(cloud->header, why); });
   else
   {
-    image_filter_ =
-      std::make_unique<tf2_ros::MessageFilter<Image>>(tf_buffer_, params_.transform.reference_frame, queue, nh_);
-    image_filter_->setTargetFrames(tf_targets_);
-    image_filter_->registerCallback([this](const Image::ConstPtr& image) { process(image); });
-    image_filter_->registerFailureCallback(
-      [this](const Image::ConstPtr& image, tf2_ros::filter_failure_reasons::FilterFailureReason reason) {
-        transformFailed(image, reason);
+    image_wait_ = std::make_unique<laserscan_common::TransformWait<CameraFrame>>(
+      tf_buffer_, tf_targets_, queue, nh_,
+      [this](const boost::shared_ptr<const CameraFrame>& frame, const ros::Time& received) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        convert(*frame->image, frame->image->data.data(), frame->image->data.size(), frame->info, received);
+      },
+      [this](const boost::shared_ptr<const CameraFrame>& frame, const char* why) {
+        transformFailed(frame->header, why);
       });
     image_sync_ = std::make_unique<ImageSync>(message_filters::sync_policies::ExactTime<Image, CameraInfo>(queue),
                                               image_in_, info_sub_);
@@ -173,8 +162,7 @@ void DepthFilterScanConverter::subscribeInput()
         return convertInPlace(cloud, bytes, size);
       };
     input_sub_ = subscribeCopyingOnce<Cloud>(
-      nh_, "cloud_in", queue, [this](const Cloud::ConstPtr& cloud) { arrived(cloud, nullptr, *cloud_filter_); },
-      in_place);
+      nh_, "cloud_in", queue, [this](const Cloud::ConstPtr& cloud) { cloudArrived(cloud); }, in_place);
   }
   else
   {
@@ -190,30 +178,21 @@ void DepthFilterScanConverter::unsubscribeInput()
   info_sub_.unsubscribe();
 }
 
-template <class M>
-void DepthFilterScanConverter::arrived(const boost::shared_ptr<const M>& message, const CameraInfo::ConstPtr& info,
-                                       tf2_ros::MessageFilter<M>& filter)
+void DepthFilterScanConverter::cloudArrived(const Cloud::ConstPtr& cloud)
 {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++received_;
-    const Admission admission = admit(message->header);
+    const Admission admission = admit(cloud->header);
     if (admission == Admission::Dropped)
       return;
-    // The usual case, the transform already there: convert now, without the filter's extra trip
-    // through the callback queue (and its second tf query).
     if (admission == Admission::Ready)
     {
-      convert(*message, message->data.data(), message->data.size(), Arrival{ message, ros::Time(), info });
+      convert(*cloud, cloud->data.data(), cloud->data.size(), nullptr, ros::Time());
       return;
     }
-    arrivals_.push_back({ message, ros::Time::now(), info });
-    // Messages leave the filter's queue (processed or dropped) in arrival order at the latest
-    // after queue_size newer ones: older records are of no use.
-    while (arrivals_.size() > static_cast<std::size_t>(2 * queue_size_))
-      arrivals_.pop_front();
   }
-  filter.add(message);
+  cloud_wait_->wait(cloud, ros::Time::now());  // outside mutex_: a failure may come back through it
 }
 
 DepthFilterScanConverter::Admission DepthFilterScanConverter::admit(const std_msgs::Header& header)
@@ -226,12 +205,10 @@ DepthFilterScanConverter::Admission DepthFilterScanConverter::admit(const std_ms
     dropMalformed(problem, header.frame_id);
     return Admission::Dropped;
   }
-  const tf2::BufferCore& transforms = tf_buffer_;
-  const std::string frame = laserscan_common::tf2FrameId(header.frame_id);
-  for (const std::string& target : tf_targets_)
-    if (!transforms.canTransform(target, frame, header.stamp))
-      return Admission::Wait;
-  return Admission::Ready;
+  // The usual case, the transform already there: converted now, without the wait's extra trip
+  // through the callback queue (and its second tf query).
+  const bool ready = input_ == DepthInput::Cloud ? cloud_wait_->ready(header) : image_wait_->ready(header);
+  return ready ? Admission::Ready : Admission::Wait;
 }
 
 bool DepthFilterScanConverter::convertInPlace(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size)
@@ -246,7 +223,7 @@ bool DepthFilterScanConverter::convertInPlace(const Cloud& cloud, const std::uin
   {
     try
     {
-      convert(cloud, bytes, size, Arrival{});
+      convert(cloud, bytes, size, nullptr, ros::Time());
     }
     catch (const std::exception& e)
     {
@@ -259,7 +236,19 @@ bool DepthFilterScanConverter::convertInPlace(const Cloud& cloud, const std::uin
 
 void DepthFilterScanConverter::imageArrived(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info)
 {
-  arrived(image, info, *image_filter_);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++received_;
+    const Admission admission = admit(image->header);
+    if (admission == Admission::Dropped)
+      return;
+    if (admission == Admission::Ready)
+    {
+      convert(*image, image->data.data(), image->data.size(), info, ros::Time());
+      return;
+    }
+  }
+  image_wait_->wait(boost::make_shared<const CameraFrame>(CameraFrame{ image->header, image, info }), ros::Time::now());
 }
 
 void DepthFilterScanConverter::imageDropped(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info)
@@ -270,12 +259,12 @@ void DepthFilterScanConverter::imageDropped(const Image::ConstPtr& image, const 
   ++received_;
   ++without_info_;
   if (warnings_.due("no camera_info"))
-    ROS_WARN(
-      "[%s] dropped a depth image on %s (stamp %s): no camera_info with its stamp came on %s before a "
-      "newer frame's did, or within queue_size (%d) frames",
-      private_nh_.getNamespace().c_str(), input_topic_.c_str(),
-      laserscan_common::stampText(image->header.stamp.sec, image->header.stamp.nsec).c_str(),
-      nh_.resolveName("camera_info").c_str(), queue_size_);
+    NODE_WARN(private_nh_.getNamespace(),
+              "dropped a depth image on %s (stamp %s): no camera_info with its stamp came on %s before a "
+              "newer frame's did, or within queue_size (%d) frames",
+              input_topic_.c_str(),
+              laserscan_common::stampText(image->header.stamp.sec, image->header.stamp.nsec).c_str(),
+              nh_.resolveName("camera_info").c_str(), queue_size_);
 }
 
 std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& header)
@@ -288,9 +277,10 @@ std::string DepthFilterScanConverter::headerProblem(const std_msgs::Header& head
   const laserscan_common::StampLimits limits{
     laserscan_common::kMaxStampAheadNs, params_.transform.tf_buffer_duration + params_.transform.transform_tolerance
   };
-  if (const char* fault = laserscan_common::stampFault(header.stamp.sec, header.stamp.nsec, 0,
-                                                       laserscan_common::StampUse::kLookup, limits))
-    return std::string(fault) + " (stamp " + stamp() + ")";
+  if (const std::string fault = laserscan_common::stampFault(header.stamp.sec, header.stamp.nsec, 0,
+                                                             laserscan_common::StampUse::kLookup, limits);
+      !fault.empty())
+    return fault + " (stamp " + stamp() + ")";
   frame_id_(header.frame_id);
   return {};
 }
@@ -308,93 +298,67 @@ void DepthFilterScanConverter::dropMalformed(const std::string& reason, const st
   };
   last_malformed_reason_ = reason;
   if (warnings_.due("malformed: " + kind(reason)))
-    ROS_WARN("[%s] dropped a malformed %s on %s (frame '%s'): %s", private_nh_.getNamespace().c_str(),
-             input_ == DepthInput::Cloud ? "cloud" : "depth image", input_topic_.c_str(), frame_id.c_str(),
-             reason.c_str());
+    NODE_WARN(private_nh_.getNamespace(), "dropped a malformed %s on %s (frame '%s'): %s",
+              input_ == DepthInput::Cloud ? "cloud" : "depth image", input_topic_.c_str(), frame_id.c_str(),
+              reason.c_str());
 }
 
-bool DepthFilterScanConverter::takeArrival(const void* message, Arrival& arrival)
-{
-  for (auto it = arrivals_.begin(); it != arrivals_.end(); ++it)
-    if (it->message.get() == message)
-    {
-      arrival = *it;
-      arrivals_.erase(it);
-      return true;
-    }
-  return false;
-}
-
-template <class M>
-void DepthFilterScanConverter::transformFailed(const boost::shared_ptr<const M>& cloud,
-                                               tf2_ros::filter_failure_reasons::FilterFailureReason reason)
+void DepthFilterScanConverter::transformFailed(const std_msgs::Header& header, const char* why)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   ++tf_failures_;
-  Arrival arrival;
-  takeArrival(cloud.get(), arrival);
-  last_tf_reason_ = failureText(reason);
+  last_tf_reason_ = why;
   if (warnings_.due("no transform"))
-    ROS_WARN("[%s] dropped a cloud: no transform %s -> %s at %s: %s", private_nh_.getNamespace().c_str(),
-             cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
-             laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec).c_str(),
-             last_tf_reason_.c_str());
+    NODE_WARN(private_nh_.getNamespace(), "dropped a cloud: no transform %s -> %s at %s: %s", header.frame_id.c_str(),
+              params_.transform.reference_frame.c_str(),
+              laserscan_common::stampText(header.stamp.sec, header.stamp.nsec).c_str(), why);
 }
 
 std::string DepthFilterScanConverter::viewOf(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size,
-                                             const Arrival& /*arrival*/, CloudView& view)
+                                             const CameraInfo::ConstPtr& /*info*/, CloudView& view)
 {
   std::string intensity_note;
   const std::string reason =
     makeCloudView(cloudLayoutOf(cloud), bytes, size, params_.input.intensity_field, view, &intensity_note);
   if (reason.empty() && !intensity_note.empty() && warnings_.due("no intensity field", 30.0))
-    ROS_WARN("[%s] %s: the scan has no intensities", private_nh_.getNamespace().c_str(), intensity_note.c_str());
+    NODE_WARN(private_nh_.getNamespace(), "%s: the scan has no intensities", intensity_note.c_str());
   return reason;
 }
 
 std::string DepthFilterScanConverter::viewOf(const Image& image, const std::uint8_t* bytes, std::size_t size,
-                                             const Arrival& arrival, DepthImageView& view)
+                                             const CameraInfo::ConstPtr& info, DepthImageView& view)
 {
-  if (!arrival.info)
+  if (!info)
     return "no camera_info for this image";
-  return makeDepthImageView(imageLayoutOf(image), bytes, size, cameraModelOf(*arrival.info),
+  return makeDepthImageView(imageLayoutOf(image), bytes, size, cameraModelOf(*info),
                             params_.input.depth_image_rectified, view);
 }
 
 template <class M>
-void DepthFilterScanConverter::process(const boost::shared_ptr<const M>& message)
-{
-  std::lock_guard<std::mutex> lock(mutex_);
-  Arrival arrival;
-  takeArrival(message.get(), arrival);
-  convert(*message, message->data.data(), message->data.size(), arrival);
-}
-
-template <class M>
 void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* bytes, std::size_t size,
-                                       const Arrival& arrival)
+                                       const CameraInfo::ConstPtr& info, const ros::Time& received)
 {
   const auto start = std::chrono::steady_clock::now();
   const M* const cloud = &message;
   const std::string& name = private_nh_.getNamespace();
 
   // "How long a cloud may wait for its transform": a late scan is worse than none for a planner.
-  if (!arrival.time.isZero())
+  if (!received.isZero())
   {
-    const double waited = (ros::Time::now() - arrival.time).toSec();
+    const double waited = (ros::Time::now() - received).toSec();
     if (waited > params_.transform.transform_tolerance)
     {
       ++stale_;
       if (warnings_.due("late"))
-        ROS_WARN("[%s] dropped a cloud that waited %.3f s for its transform %s -> %s (transform_tolerance %.3f s)",
-                 name.c_str(), waited, cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
-                 params_.transform.transform_tolerance);
+        NODE_WARN(name, "dropped a cloud that waited %.3f s for its transform %s -> %s (transform_tolerance %.3f s)",
+                  waited, cloud->header.frame_id.c_str(), params_.transform.reference_frame.c_str(),
+                  params_.transform.transform_tolerance);
       return;
     }
   }
 
   std::conditional_t<std::is_same_v<M, Image>, DepthImageView, CloudView> view;
-  const std::string reason = viewOf(*cloud, bytes, size, arrival, view);
+  const std::string reason = viewOf(*cloud, bytes, size, info, view);
   if (!reason.empty())
   {
     dropMalformed(reason, cloud->header.frame_id);
@@ -422,7 +386,7 @@ void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* byt
     ++tf_failures_;
     last_tf_reason_ = e.what();
     if (warnings_.due("no transform"))
-      ROS_WARN("[%s] dropped a cloud: %s", name.c_str(), e.what());
+      NODE_WARN(name, "dropped a cloud: %s", e.what());
     return;
   }
 
@@ -490,14 +454,15 @@ void DepthFilterScanConverter::reconfigure(Config& config, std::uint32_t /*level
   {
     projector_.setParameters(p);  // validates
     params_ = p;
-    ROS_INFO("[%s] reconfigured: band %.3f .. %.3f m above floor %.3f m, range %.3f .. %.3f m, holes %s (depth %.3f m)",
-             private_nh_.getNamespace().c_str(), p.band.min_height, p.band.max_height, p.band.floor_height,
-             p.scan.range_min, p.scan.range_max, p.band.hole_detection ? "on" : "off", p.band.hole_depth);
+    NODE_INFO(private_nh_.getNamespace(),
+              "reconfigured: band %.3f .. %.3f m above floor %.3f m, range %.3f .. %.3f m, holes %s (depth %.3f m)",
+              p.band.min_height, p.band.max_height, p.band.floor_height, p.scan.range_min, p.scan.range_max,
+              p.band.hole_detection ? "on" : "off", p.band.hole_depth);
   }
   catch (const ParameterError& e)
   {
-    ROS_WARN("[%s] rejected a dynamic_reconfigure change: %s; keeping the previous values",
-             private_nh_.getNamespace().c_str(), describe(e).c_str());
+    NODE_WARN(private_nh_.getNamespace(), "rejected a dynamic_reconfigure change: %s; keeping the previous values",
+              describe(e).c_str());
     toConfig(params_, config);
   }
 }

@@ -1,15 +1,15 @@
 #include <pluginlib/class_list_macros.hpp>
 
 #include "depth_filter_scan_converter/depth_filter_scan_converter_ros.hpp"
-#include "entry_points.hpp"
+#include "laserscan_common/entry_points.hpp"
 
 namespace depth_filter_scan_converter
 {
 /// PointCloud2 on cloud_in -> scan.
-class DepthFilterScanConverterNodelet : public ConverterNodelet<DepthFilterScanConverter, DepthInput::Cloud>
+class DepthFilterScanConverterNodelet : public laserscan_common::NodeletOf<DepthFilterScanConverter, DepthInput::Cloud>
 {};
 /// Depth image on image + camera_info -> scan.
-class DepthImageScanConverterNodelet : public ConverterNodelet<DepthFilterScanConverter, DepthInput::Image>
+class DepthImageScanConverterNodelet : public laserscan_common::NodeletOf<DepthFilterScanConverter, DepthInput::Image>
 {};
 }  // namespace depth_filter_scan_converter
 

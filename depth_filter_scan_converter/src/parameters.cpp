@@ -2,6 +2,8 @@
 
 #include <limits>
 
+#include "laserscan_common/scan_geometry.hpp"
+
 namespace depth_filter_scan_converter
 {
 namespace
@@ -36,33 +38,19 @@ void BandParams::validate() const
 
 void ScanParams::validate() const
 {
-  // The same angle rules as multi_laserscan_merger's output: a scan covers at most one turn,
-  // which also catches limits written in degrees.
-  constexpr double kTwoPi = 2.0 * 3.14159265358979323846;
-  require(std::isfinite(angle_min) && angle_min >= -kTwoPi && angle_min <= kTwoPi, "angle_min",
-          "must be finite and within [-2*pi, 2*pi] (radians)");
-  require(std::isfinite(angle_max) && angle_max >= -kTwoPi && angle_max <= kTwoPi, "angle_max",
-          "must be finite and within [-2*pi, 2*pi] (radians)");
-  require(angle_min < angle_max, "angle_min", "must be smaller than angle_max");
-  require(angle_max - angle_min <= kTwoPi + 1e-6, "angle_max", "angle_max - angle_min must not exceed 2*pi");
-  require(std::isfinite(angle_increment) && angle_increment > 0.0, "angle_increment", "must be a finite value > 0");
-  require((angle_max - angle_min) / angle_increment < 1e6, "angle_increment", "gives more than one million beams");
-  require(std::isfinite(range_min) && range_min >= 0.0, "range_min", "must be finite and >= 0");
-  require(!std::isnan(range_max), "range_max", "must not be NaN");
-  require(range_min < range_max, "range_min", "must be smaller than range_max");
-  require(std::isfinite(inf_epsilon) && inf_epsilon >= 0.0, "inf_epsilon", "must be finite and >= 0");
-  require(use_inf || std::isfinite(range_max), "range_max",
-          "must be finite when use_inf is false (no return = range_max + inf_epsilon)");
+  // The same rules as multi_laserscan_merger's output: one home, laserscan_common.
+  laserscan_common::validateScanGeometry(angle_min, angle_max, angle_increment, range_min, range_max, use_inf,
+                                         inf_epsilon);
 }
 
 std::size_t ScanParams::beamCount() const
 {
-  return static_cast<std::size_t>(std::lround((angle_max - angle_min) / angle_increment)) + 1;
+  return laserscan_common::beamCount(angle_min, angle_max, angle_increment);
 }
 
 float ScanParams::noReturnValue() const
 {
-  return use_inf ? std::numeric_limits<float>::infinity() : static_cast<float>(range_max + inf_epsilon);
+  return laserscan_common::noReturnValue(use_inf, range_max, inf_epsilon);
 }
 
 float ScanParams::tooCloseValue() const

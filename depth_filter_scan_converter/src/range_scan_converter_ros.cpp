@@ -3,6 +3,7 @@
 #include <sensor_msgs/LaserScan.h>
 
 #include <boost/make_shared.hpp>
+#include "laserscan_common/node_log.hpp"
 
 namespace depth_filter_scan_converter
 {
@@ -31,7 +32,8 @@ RangeScanConverter::RangeScanConverter(ros::NodeHandle nh, ros::NodeHandle priva
       },
       [this] { range_sub_.shutdown(); }),
     converter_(params_),
-    diagnostics_(nh, private_nh, [this](diagnostic_updater::DiagnosticStatusWrapper& status) { diagnose(status); })
+    diagnostics_(nh, private_nh, "Input and processing",
+                 [this](diagnostic_updater::DiagnosticStatusWrapper& status) { diagnose(status); })
 {
   // Lazy: subscribe to the ranges only while someone listens to the scan.
   scan_pub_ = lazy_.advertise<sensor_msgs::LaserScan>(nh_, "scan", 10);
@@ -64,8 +66,8 @@ void RangeScanConverter::rangeArrived(const sensor_msgs::Range::ConstPtr& msg)
     // A new kind of defect is reported at once, the same one again at most every 5 s (per
     // converter: several in one manager do not hide each other's messages).
     if (warn_malformed_.due(reason))
-      ROS_ERROR("[%s] dropped a bad range message (frame '%s', stamp %.3f): %s", private_nh_.getNamespace().c_str(),
-                msg->header.frame_id.c_str(), reading.stamp, reason.c_str());
+      NODE_ERROR(private_nh_.getNamespace(), "dropped a bad range message (frame '%s', stamp %.3f): %s",
+                 msg->header.frame_id.c_str(), reading.stamp, reason.c_str());
     last_malformed_reason_ = reason;
     return;
   }

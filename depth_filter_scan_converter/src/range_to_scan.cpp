@@ -5,11 +5,13 @@
 #include <limits>
 #include <sstream>
 
+#include "laserscan_common/scan_geometry.hpp"
+
 namespace depth_filter_scan_converter
 {
 namespace
 {
-constexpr double kTwoPi = 2.0 * 3.14159265358979323846;
+using laserscan_common::kTwoPi;
 constexpr std::size_t kMaxBeams = 100000;
 
 void require(bool ok, const char* parameter, const char* reason)

@@ -8,12 +8,13 @@
 #include <string>
 
 #include "depth_filter_scan_converter/range_to_scan.hpp"
+#include "laserscan_common/scan_geometry.hpp"
 
 namespace dfsc = depth_filter_scan_converter;
 
 namespace
 {
-constexpr double kPi = 3.14159265358979323846;
+using laserscan_common::kPi;
 
 dfsc::RangeReading reading(double range, double fov = 0.5, double min_range = 0.3, double max_range = 5.0)
 {

@@ -1,5 +1,7 @@
 #include "laserscan_common/parameter_reader.hpp"
 
+#include "laserscan_common/node_log.hpp"
+
 #include <cmath>
 #include <limits>
 
@@ -111,7 +113,7 @@ void ParameterReader::warnUnknown() const
   for (const auto& [name, close] : unknown())
   {
     const std::string hint = close.empty() ? "" : " (did you mean '" + close + "'?)";
-    ROS_WARN("%s: unknown parameter '%s'%s, ignored", nh_.getNamespace().c_str(), name.c_str(), hint.c_str());
+    NODE_WARN(nh_.getNamespace(), "unknown parameter '%s'%s, ignored", name.c_str(), hint.c_str());
   }
 }
 

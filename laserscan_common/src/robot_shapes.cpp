@@ -93,14 +93,11 @@ std::string resolveFileUri(const std::string& uri)
   return uri.find("://") == std::string::npos ? uri : std::string();
 }
 
-bool meshBounds(const std::string& path, Eigen::Vector3d& lo, Eigen::Vector3d& hi, std::string& why)
+std::string meshBounds(const std::string& path, Eigen::Vector3d& lo, Eigen::Vector3d& hi)
 {
   std::ifstream file(path, std::ios::binary);
   if (!file)
-  {
-    why = "cannot open '" + path + "'";
-    return false;
-  }
+    return "cannot open '" + path + "'";
   const std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
   lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   hi = -lo;
@@ -111,16 +108,10 @@ bool meshBounds(const std::string& path, Eigen::Vector3d& lo, Eigen::Vector3d& h
   else if (endsWith(name, ".obj"))
     ok = textBounds(bytes, "v", lo, hi);
   else
-  {
-    why = "'" + path + "' is neither STL nor OBJ";
-    return false;
-  }
+    return "'" + path + "' is neither STL nor OBJ";
   if (!ok || !lo.allFinite() || !hi.allFinite())
-  {
-    why = "'" + path + "' has no readable vertex";
-    return false;
-  }
-  return true;
+    return "'" + path + "' has no readable vertex";
+  return {};
 }
 
 std::vector<RobotShape> shapesFromUrdf(const std::string& urdf_xml, const std::vector<std::string>& links,
@@ -197,11 +188,9 @@ std::vector<RobotShape> shapesFromUrdf(const std::string& urdf_xml, const std::v
           const Eigen::Vector3d scale(mesh.scale.x, mesh.scale.y, mesh.scale.z);
           shape.kind = ShapeKind::kBox;
           Eigen::Vector3d lo, hi;
-          std::string why;
           const std::string path = resolve ? resolve(mesh.filename) : resolveFileUri(mesh.filename);
-          if (path.empty())
-            why = "cannot resolve '" + mesh.filename + "'";
-          if (!path.empty() && meshBounds(path, lo, hi, why))
+          const std::string why = path.empty() ? "cannot resolve '" + mesh.filename + "'" : meshBounds(path, lo, hi);
+          if (why.empty())
           {
             // The box of the scaled vertices (a negative scale mirrors; the box stays a box).
             const Eigen::Vector3d a = lo.cwiseProduct(scale), b = hi.cwiseProduct(scale);

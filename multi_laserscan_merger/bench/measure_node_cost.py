@@ -4,8 +4,11 @@ the standalone node, fed with the paper's four sources (2 lidars x 360 beams at 
 scans x 328 beams at 14 Hz) and odometry at 50 Hz, publish_rate 0 (one output per input).
 
 Starts its own roscore on a free port. A separate Python process publishes the inputs and
-subscribes to the output in both modes, so the figure is the merger process's CPU (receive
-and deserialise the inputs, merge, serialise the output) per output. Run after sourcing the
+subscribes to the output in every mode, so the figure is the merger process's CPU (receive
+and deserialise the inputs, merge, serialise the output) per output. The third mode runs
+`scan_relay_node` (bench/scan_relay_node.cpp) instead: it subscribes the four scans and
+publishes one 1441-beam scan per input, nothing else; the node's figure above it is what the
+merger's glue and core cost. Run after sourcing the
 build's devel/setup.bash:
 
     /usr/bin/python3 multi_laserscan_merger/bench/measure_node_cost.py [--seconds 20]
@@ -80,8 +83,10 @@ def publisher(count_file):
     timers = [rospy.Timer(rospy.Duration(1.0 / s[9]), lambda e, s=s: scan(s)) for s in SOURCES]
     timers.append(rospy.Timer(rospy.Duration(0.02), odom))
     while not rospy.is_shutdown():
-        with open(count_file, 'w') as f:
+        # Replaced whole, so that a reader never sees the file empty halfway through a write.
+        with open(count_file + '.tmp', 'w') as f:
             f.write(str(count[0]))
+        os.replace(count_file + '.tmp', count_file)
         rospy.sleep(0.1)
     del timers
 
@@ -114,7 +119,8 @@ def measure(env, mode, seconds, tmp):
                                       stderr=subprocess.DEVNULL))
         target = manager
     else:
-        target = subprocess.Popen(['rosrun', 'multi_laserscan_merger', 'multi_laserscan_merger_node', '__name:=merger'],
+        program = 'scan_relay_node' if mode == 'relay' else 'multi_laserscan_merger_node'
+        target = subprocess.Popen(['rosrun', 'multi_laserscan_merger', program, '__name:=merger'],
                                   env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         procs.append(target)
     count_file = os.path.join(tmp, mode + '.count')
@@ -156,11 +162,15 @@ def main():
     try:
         while subprocess.run(['rosparam', 'list'], env=env, capture_output=True).returncode != 0:
             time.sleep(0.3)
-        for mode in ('nodelet', 'node'):
+        per_output = {}
+        for mode in ('nodelet', 'node', 'relay'):
             cpu, outputs, wall = measure(env, mode, args.seconds, tmp)
+            per_output[mode] = 1e6 * cpu / max(outputs, 1)
             print('%-8s %5d outputs in %.1f s (%.1f Hz): merger process CPU %.3f s = %.1f us per output '
-                  '(%.1f%% of one core)' % (mode, outputs, wall, outputs / wall, cpu, 1e6 * cpu / max(outputs, 1),
+                  '(%.1f%% of one core)' % (mode, outputs, wall, outputs / wall, cpu, per_output[mode],
                                             100 * cpu / wall))
+        print('node above the relay: %.1f us per output (glue and core; the core alone is about 2.4 us: '
+              'bench/benchmark.cpp)' % (per_output['node'] - per_output['relay']))
     finally:
         core.send_signal(signal.SIGINT)
         core.wait(timeout=30)

@@ -111,17 +111,17 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
     [](const py::dict& d) -> py::object {
       ScanHolder h;
       scanFromDict(d, h);
-      const char* f = scanFault(h.input.scan);
-      return f == nullptr ? py::object(py::none()) : py::object(py::str(f));
+      const std::string f = scanFault(h.input.scan);
+      return f.empty() ? py::object(py::none()) : py::object(py::str(f));
     },
     py::arg("scan"), "None when the scan is usable, else the fault");
   m.def(
     "stamp_fault",
     [](std::uint32_t sec, std::uint32_t nsec, std::int64_t now_ns, bool static_transform) -> py::object {
-      const char* f = laserscan_common::stampFault(
+      const std::string f = laserscan_common::stampFault(
         sec, nsec, now_ns,
         static_transform ? laserscan_common::StampUse::kStaticTransform : laserscan_common::StampUse::kMeasurement);
-      return f == nullptr ? py::object(py::none()) : py::object(py::str(f));
+      return f.empty() ? py::object(py::none()) : py::object(py::str(f));
     },
     py::arg("sec"), py::arg("nsec"), py::arg("now_ns"), py::arg("static_transform") = false,
     "None when the stamp is usable, else the fault");
@@ -199,7 +199,7 @@ PYBIND11_MODULE(multi_laserscan_merger_core, m)
         std::vector<SourceStatus> status;
         core.merge(inputs, t_out, odom, o, out, status);
         py::dict r;
-        r["stamp"] = out.stamp;
+        r["stamp"] = t_out;  // the output time it was merged at
         r["ranges"] = py::array_t<float>(out.ranges.size(), out.ranges.data());
         r["intensities"] = py::array_t<float>(out.intensities.size(), out.intensities.data());
         py::list st;

@@ -67,7 +67,7 @@ std::size_t expectedBeamCount(const ScanView& s)
   return static_cast<std::size_t>(std::lround(steps)) + 1;
 }
 
-const char* scanFault(const ScanView& s)
+std::string scanFault(const ScanView& s)
 {
   if (!std::isfinite(s.stamp))
     return "non-finite stamp";
@@ -95,7 +95,7 @@ const char* scanFault(const ScanView& s)
     return "ranges length does not match round((angle_max - angle_min) / angle_increment) + 1";
   if (s.n_intensities != 0 && (s.intensities == nullptr || s.n_intensities != s.n_ranges))
     return "intensities length is neither 0 nor the ranges length";
-  return nullptr;
+  return {};
 }
 
 void remapResolution(const std::vector<float>& in, std::size_t n_new, std::vector<float>& out)
@@ -160,11 +160,11 @@ void MergerCore::updateCache(std::size_t source, const ScanView& scan)
 }
 
 void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, const OdometryBuffer* odom,
-                       const Eigen::Isometry3d& output_T_robot, MergedScan& out, std::vector<SourceStatus>& status)
+                       const Eigen::Isometry3d& output_T_robot, std::vector<float>& out_ranges,
+                       std::vector<float>& out_intensities, std::vector<SourceStatus>& status)
 {
   const std::size_t n_src = params_.sources.size();
   status.assign(n_src, SourceStatus::kMissing);
-  out.stamp = t_out;
   // Scratch bins past the end take the beams left out (see projectBeams).
   // +Inf everywhere: filled once, reset by applyOutputLimits at the end of every merge (the
   // scratch bins after n_out are never read, they need no reset).
@@ -176,7 +176,7 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
     const SourceInput& in = inputs[s];
     if (!in.present)
       continue;
-    if (scanFault(in.scan) != nullptr)
+    if (!in.checked && !scanFault(in.scan).empty())
       status[s] = SourceStatus::kInvalid;
     else if (t_out - in.scan.stamp > params_.sources[s].timeout)
       status[s] = SourceStatus::kTimedOut;
@@ -305,21 +305,21 @@ void MergerCore::merge(const std::vector<SourceInput>& inputs, double t_out, con
   const OutputParams& o = params_.output;
   const float rmin = static_cast<float>(o.range_min);
   const float rmax = static_cast<float>(o.range_max);
-  const float no_return = o.use_inf ? kFInf : static_cast<float>(o.range_max + o.inf_epsilon);
+  const float no_return = o.noReturnValue();
   // finite_only: 0 is below range_min (> 0, validated), which consumers discard.
   const float invalid = o.finite_only ? 0.0f : kFNaN;
   const float too_close = o.finite_only ? 0.0f : -kFInf;
   if (any_intensity)
   {
-    out.intensities.assign(ibins_.begin(), ibins_.begin() + static_cast<std::ptrdiff_t>(n_out_));
+    out_intensities.assign(ibins_.begin(), ibins_.begin() + static_cast<std::ptrdiff_t>(n_out_));
     for (std::size_t k = 0; k < n_out_; ++k)
       if (!(r[k] <= rmax))
-        out.intensities[k] = 0.0f;  // no return or invalid
+        out_intensities[k] = 0.0f;  // no return or invalid
   }
   else
-    out.intensities.clear();
-  out.ranges.resize(n_out_);
-  applyOutputLimits(r.data(), out.ranges.data(), n_out_, rmin, rmax, no_return, invalid, too_close);
+    out_intensities.clear();
+  out_ranges.resize(n_out_);
+  applyOutputLimits(r.data(), out_ranges.data(), n_out_, rmin, rmax, no_return, invalid, too_close);
 }
 
 const SourceInput& MergerCore::withoutSelfReturns(std::size_t source, const SourceInput& in)

@@ -8,8 +8,8 @@
 
 #include <tf2_eigen/tf2_eigen.h>
 
-#include "laserscan_common/diagnostics_timer.hpp"
 #include "laserscan_common/self_filter_parameters.hpp"
+#include "laserscan_common/node_log.hpp"
 
 namespace multi_laserscan_merger
 {
@@ -82,24 +82,24 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
     laserscan_common::makeSelfFilter(laserscan_common::readSelfFilterParams(reader_), nh_, self_filter_warnings);
   reader_.warnUnknown();
   for (const std::string& warning : self_filter_warnings)
-    ROS_WARN("%s: self filter: %s", name_.c_str(), warning.c_str());
+    NODE_WARN(name_, "self filter: %s", warning.c_str());
   for (std::size_t i = 0; i < sources_.size(); ++i)
     if (params_.sources[i].self_filter)
       sources_[i].self_filter = self_filter;
   if (!self_filter.empty())
-    ROS_INFO("%s: self filter: %zu shapes on %zu frames", name_.c_str(), self_filter.shapes().size(),
-             self_filter.frames().size());
+    NODE_INFO(name_, "self filter: %zu shapes on %zu frames", self_filter.shapes().size(), self_filter.frames().size());
   for (std::size_t i = 0; i < sources_.size(); ++i)
-    sources_[i].frame_id =
-      laserscan_common::FrameIdNormaliser([this, i](const std::string& frame_id, const std::string& used) {
-        const SourceParams& sp = params_.sources[i];
-        ROS_WARN("%s: source '%s' (%s): frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
-                 name_.c_str(), sp.name.c_str(), sp.topic.c_str(), frame_id.c_str(), used.c_str());
-      });
+    sources_[i].frame_id = laserscan_common::FrameIdNormaliser([this, i](const std::string& frame_id,
+                                                                         const std::string& used) {
+      const SourceParams& sp = params_.sources[i];
+      NODE_WARN(name_, "source '%s' (%s): frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
+                sp.name.c_str(), sp.topic.c_str(), frame_id.c_str(), used.c_str());
+    });
   odom_child_frame_id_ =
     laserscan_common::FrameIdNormaliser([this](const std::string& frame_id, const std::string& used) {
-      ROS_WARN("%s: odometry (%s): child_frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
-               name_.c_str(), odom_topic_.c_str(), frame_id.c_str(), used.c_str());
+      NODE_WARN(name_,
+                "odometry (%s): child_frame_id '%s' starts with '/', which tf2 refuses: using '%s' (reported once)",
+                odom_topic_.c_str(), frame_id.c_str(), used.c_str());
     });
   inputs_.resize(params_.sources.size());
   std::vector<double> timeouts;
@@ -108,6 +108,7 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   SyncedOutputs<ScanInMerge>::Handlers handlers;
   handlers.merge = [this](std::size_t i, const ScanInMerge& scan) {
     sources_[i].scan = scan.msg;
+    sources_[i].view = scan.view;
     sources_[i].output_T_sensor = scan.output_T_sensor;
     sources_[i].scan_self_filter = scan.self_filter;
   };
@@ -126,16 +127,28 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   sync_timer_ = nh_.createSteadyTimer(
     ros::WallDuration(1.0), [this](const ros::SteadyTimerEvent&) { syncTimerCallback(); }, true, false);
   tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, name_);
-  last_now_ = ros::Time::now();
-  last_report_ = ros::WallTime::now();
-
-  updater_ = std::make_unique<diagnostic_updater::Updater>(nh_, private_nh_, name_);
-  updater_->setHardwareID(name_);
   for (std::size_t i = 0; i < sources_.size(); ++i)
-    updater_->add("source " + params_.sources[i].name,
-                  [this, i](diagnostic_updater::DiagnosticStatusWrapper& s) { sourceDiagnostics(i, s); });
-  updater_->add("odometry", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { odometryDiagnostics(s); });
-  updater_->add("output", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { outputDiagnostics(s); });
+  {
+    // A scan waits for its mount and for the robot's parts it filters out.
+    std::vector<std::string> targets{ params_.output.frame };
+    targets.insert(targets.end(), sources_[i].self_filter.frames().begin(), sources_[i].self_filter.frames().end());
+    sources_[i].wait = std::make_unique<laserscan_common::TransformWait<sensor_msgs::LaserScan>>(
+      tf_buffer_, targets, 1, nh_,
+      [this, i](const sensor_msgs::LaserScan::ConstPtr& msg, const ros::Time& received) {
+        transformArrived(i, msg, received, nullptr);
+      },
+      [this, i](const sensor_msgs::LaserScan::ConstPtr& msg, const char* why) {
+        transformArrived(i, msg, ros::Time(), why);
+      });
+  }
+  last_now_ = ros::Time::now();
+
+  diagnostics_ = std::make_unique<laserscan_common::NodeDiagnostics>(nh_, private_nh_);
+  for (std::size_t i = 0; i < sources_.size(); ++i)
+    diagnostics_->add("source " + params_.sources[i].name,
+                      [this, i](diagnostic_updater::DiagnosticStatusWrapper& s) { sourceDiagnostics(i, s); });
+  diagnostics_->add("odometry", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { odometryDiagnostics(s); });
+  diagnostics_->add("output", [this](diagnostic_updater::DiagnosticStatusWrapper& s) { outputDiagnostics(s); });
 
   pub_ = nh_.advertise<sensor_msgs::LaserScan>(kOutputTopic, 10);
   for (std::size_t i = 0; i < sources_.size(); ++i)
@@ -152,13 +165,13 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
   if (params_.publish_rate > 0.0)
     publish_timer_ = nh_.createTimer(ros::Duration(1.0 / params_.publish_rate),
                                      [this](const ros::TimerEvent& e) { timerCallback(e); });
-  diagnostics_timer_ = laserscan_common::diagnosticsTimer(nh_, *updater_, name_);
-  ROS_INFO(
-    "%s: merging %zu sources into '%s' on '%s' (%zu beams), publish_rate %.1f Hz, sync_window %.3f s, motion "
-    "compensation %s",
-    name_.c_str(), sources_.size(), params_.output.frame.c_str(), output_topic.c_str(), core_->beamCount(),
-    params_.publish_rate, params_.sync_window,
-    params_.odom_topic.empty() ? "off" : ("from '" + params_.odom_topic + "'").c_str());
+  diagnostics_->start();
+  NODE_INFO(name_,
+            "merging %zu sources into '%s' on '%s' (%zu beams), publish_rate %.1f Hz, sync_window %.3f s, motion "
+            "compensation %s",
+            sources_.size(), params_.output.frame.c_str(), output_topic.c_str(), core_->beamCount(),
+            params_.publish_rate, params_.sync_window,
+            params_.odom_topic.empty() ? "off" : ("from '" + params_.odom_topic + "'").c_str());
 }
 
 void MultiLaserScanMergerRos::checkTimeJump()
@@ -178,7 +191,7 @@ void MultiLaserScanMergerRos::checkTimeJump()
 void MultiLaserScanMergerRos::clearAll(const std::string& why, const std::string& kind)
 {
   if (warnings_.due(kind))
-    ROS_WARN("%s: %s: scan and odometry buffers cleared", name_.c_str(), why.c_str());
+    NODE_WARN(name_, "%s: scan and odometry buffers cleared", why.c_str());
   for (auto& s : sources_)
   {
     s.scan.reset();
@@ -186,46 +199,39 @@ void MultiLaserScanMergerRos::clearAll(const std::string& why, const std::string
   }
   odom_.clear();
   odom_newest_ = ros::Time();
-  last_published_ = ros::Time();
   outputs_->reset();
-  tick_deferred_ = false;
 }
 
-bool MultiLaserScanMergerRos::tryTransform(const std::string& frame, const ros::Time& stamp,
-                                           Eigen::Isometry3d& output_T_sensor, std::string& error)
+std::string MultiLaserScanMergerRos::tryTransform(const std::string& frame, const ros::Time& stamp,
+                                                  Eigen::Isometry3d& output_T_sensor)
 {
-  // Never blocks: canTransform without a timeout, the scan waits as pending instead. tf2 works
+  std::string error;
+  // Never blocks: canTransform without a timeout, the scan waits in its source's wait instead. tf2 works
   // with ros::Time and ros::Duration internally: whatever it throws is this scan's failure.
   try
   {
     if (!tf_buffer_.canTransform(params_.output.frame, frame, stamp, &error))
     {
-      if (error.empty())
-        error = "tf2 gave no reason";
-      return false;
+      return error.empty() ? "tf2 gave no reason" : error;
     }
     output_T_sensor = tf2::transformToEigen(tf_buffer_.lookupTransform(params_.output.frame, frame, stamp));
     // Finite links can still compose to an infinite chain: such a mount would move every return away.
     if (!output_T_sensor.matrix().allFinite())
-    {
-      error = "the transform is not finite";
-      return false;
-    }
+      return "the transform is not finite";
   }
   catch (const std::exception& e)
   {
-    error = e.what();
-    return false;
+    return e.what();
   }
-  return true;
+  return {};
 }
 
-bool MultiLaserScanMergerRos::poseSelfFilter(std::size_t i, const sensor_msgs::LaserScan& msg, const std::string& frame,
-                                             laserscan_common::SelfFilter& posed, std::string& error)
+std::string MultiLaserScanMergerRos::poseSelfFilter(std::size_t i, const sensor_msgs::LaserScan& msg,
+                                                    const std::string& frame, laserscan_common::SelfFilter& posed)
 {
   const SourceState& s = sources_[i];
   if (s.self_filter.empty())
-    return true;
+    return {};
   posed = s.self_filter;
   // The arm moves during a scan; one pose per scan (not per beam: a few shapes per scan, and
   // between a lidar's 0.1 s scans the arm moves a few cm): at the middle beam's time when the
@@ -237,19 +243,15 @@ bool MultiLaserScanMergerRos::poseSelfFilter(std::size_t i, const sensor_msgs::L
   try
   {
     for (const std::string& shape_frame : posed.frames())
-      if (!tf_buffer_.canTransform(frame, shape_frame, t, &error))
-      {
-        error = "self filter: no transform '" + shape_frame + "' -> '" + frame + "': " + error;
-        return false;
-      }
+      if (std::string error; !tf_buffer_.canTransform(frame, shape_frame, t, &error))
+        return "self filter: no transform '" + shape_frame + "' -> '" + frame + "': " + error;
     laserscan_common::setFramePosesAt(tf_buffer_, frame, t, posed);
   }
   catch (const std::exception& e)
   {
-    error = e.what();
-    return false;
+    return e.what();
   }
-  return true;
+  return {};
 }
 
 void MultiLaserScanMergerRos::drop(std::size_t i, std::string why)
@@ -271,8 +273,8 @@ void MultiLaserScanMergerRos::scanCallback(std::size_t i, const sensor_msgs::Las
     ++sources_[i].malformed;
     drop(i, std::string("unexpected error: ") + e.what());
     if (sources_[i].warnings.due("unexpected error"))
-      ROS_ERROR("%s: source '%s' (%s): scan dropped after an unexpected error (please report): %s", name_.c_str(),
-                params_.sources[i].name.c_str(), params_.sources[i].topic.c_str(), e.what());
+      NODE_ERROR(name_, "source '%s' (%s): scan dropped after an unexpected error (please report): %s",
+                 params_.sources[i].name.c_str(), params_.sources[i].topic.c_str(), e.what());
   }
 }
 
@@ -284,35 +286,37 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
   ++s.received;
   const ScanView view = viewOf(*msg);
   const ros::Time now = ros::Time::now();
-  const char* fault = scanFault(view);
-  if (fault == nullptr && laserscan_common::tf2FrameId(msg->header.frame_id).empty())
+  std::string fault = scanFault(view);
+  if (fault.empty() && laserscan_common::tf2FrameId(msg->header.frame_id).empty())
     fault = "empty frame_id";
-  if (fault == nullptr)
+  if (fault.empty())
     fault = laserscan_common::stampFault(msg->header.stamp.sec, msg->header.stamp.nsec,
                                          static_cast<std::int64_t>(now.toNSec()));
-  if (fault != nullptr)
+  if (!fault.empty())
   {
     ++s.malformed;
     const std::string stamp = laserscan_common::stampText(msg->header.stamp.sec, msg->header.stamp.nsec);
     drop(i,
          std::string("malformed scan: ") + fault + " (stamp " + stamp + ", frame_id '" + msg->header.frame_id + "')");
     if (s.warnings.due(fault))  // a fixed text per kind of fault
-      ROS_WARN(
-        "%s: source '%s' (%s): malformed scan dropped: %s (stamp %s, clock %.3f, frame_id '%s', %zu "
-        "ranges, %zu intensities, angles %g..%g step %g)",
-        name_.c_str(), sp.name.c_str(), sp.topic.c_str(), fault, stamp.c_str(), now.toSec(),
-        msg->header.frame_id.c_str(), msg->ranges.size(), msg->intensities.size(), msg->angle_min, msg->angle_max,
-        msg->angle_increment);
-    retryPending();
+      NODE_WARN(name_,
+                "source '%s' (%s): malformed scan dropped: %s (stamp %s, clock %.3f, frame_id '%s', %zu "
+                "ranges, %zu intensities, angles %g..%g step %g)",
+                sp.name.c_str(), sp.topic.c_str(), fault.c_str(), stamp.c_str(), now.toSec(),
+                msg->header.frame_id.c_str(), msg->ranges.size(), msg->intensities.size(), msg->angle_min,
+                msg->angle_max, msg->angle_increment);
+    expirePending();
     return;
   }
   const std::string frame = s.frame_id(msg->header.frame_id);
   if (s.scan && view.stamp < s.scan->header.stamp.toSec() - 1.0)
     clearAll("source '" + sp.name + "' stamps jumped backwards", "stamps of source " + sp.name + " jumped backwards");
-  std::string error;
   Eigen::Isometry3d output_T_sensor;
   laserscan_common::SelfFilter posed;
-  if (tryTransform(frame, msg->header.stamp, output_T_sensor, error) && poseSelfFilter(i, *msg, frame, posed, error))
+  std::string error = tryTransform(frame, msg->header.stamp, output_T_sensor);
+  if (error.empty())
+    error = poseSelfFilter(i, *msg, frame, posed);
+  if (error.empty())
   {
     if (s.pending)
     {
@@ -321,7 +325,7 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
                 "' before a newer scan was merged: " + s.pending_error);
       s.pending.reset();
     }
-    accept(i, msg, output_T_sensor, std::move(posed));
+    accept(i, msg, view, output_T_sensor, std::move(posed));
   }
   else
   {
@@ -330,51 +334,83 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
       ++s.transform_failures;  // replaced before its transform came
       drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "': " + s.pending_error);
       if (s.warnings.due("no transform before the next scan"))
-        ROS_WARN("%s: source '%s': no transform '%s' -> '%s' at %.3f, scan dropped: %s", name_.c_str(), sp.name.c_str(),
-                 s.pending_frame.c_str(), params_.output.frame.c_str(), s.pending->header.stamp.toSec(),
-                 s.pending_error.c_str());
+        NODE_WARN(name_, "source '%s': no transform '%s' -> '%s' at %.3f, scan dropped: %s", sp.name.c_str(),
+                  s.pending_frame.c_str(), params_.output.frame.c_str(), s.pending->header.stamp.toSec(),
+                  s.pending_error.c_str());
     }
     s.pending = msg;
     s.pending_frame = frame;
     s.pending_since = ros::WallTime::now();
     s.pending_error = error;
+    // With a self filter on a deskewed source the parts are posed at the middle beam's time
+    // (poseSelfFilter): the scan also waits for that.
+    ros::Duration extent;
+    if (!s.self_filter.empty() && sp.deskew && msg->ranges.size() > 1 && msg->time_increment > 0.0f)
+      extent = ros::Duration(0.5 * static_cast<double>(msg->ranges.size() - 1) * msg->time_increment);
+    s.wait->wait(msg, ros::Time(s.pending_since.sec, s.pending_since.nsec), extent);
   }
-  retryPending();
+  expirePending();
 }
 
-void MultiLaserScanMergerRos::retryPending()
+void MultiLaserScanMergerRos::transformArrived(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg,
+                                               const ros::Time& received, const char* why)
 {
-  for (std::size_t i = 0; i < sources_.size(); ++i)
+  std::lock_guard<std::mutex> lock(mutex_);
+  SourceState& s = sources_[i];
+  try
   {
-    SourceState& s = sources_[i];
-    if (!s.pending)
-      continue;
-    const sensor_msgs::LaserScan::ConstPtr msg = s.pending;
-    std::string error;
+    checkTimeJump();  // may clear it
+    if (msg != s.pending)
+      return;  // given up on already (and counted then)
     Eigen::Isometry3d output_T_sensor;
     laserscan_common::SelfFilter posed;
-    if (tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor, error) &&
-        poseSelfFilter(i, *msg, s.pending_frame, posed, error))
+    std::string error = why ? why : "";
+    const bool in_time = (ros::WallTime::now().toSec() - received.toSec()) <= kTransformWait;
+    if (error.empty() && in_time)
+      error = tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor);
+    if (error.empty() && in_time)
+      error = poseSelfFilter(i, *msg, s.pending_frame, posed);
+    if (error.empty() && in_time)
     {
       s.pending.reset();
-      accept(i, msg, output_T_sensor, std::move(posed));
-    }
-    else if ((ros::WallTime::now() - s.pending_since).toSec() > kTransformWait)
-    {
-      ++s.transform_failures;
-      drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "' in time: " + error);
-      if (s.warnings.due("no transform in time"))
-        ROS_WARN("%s: source '%s': no transform '%s' -> '%s' at %.3f within %.1f s, scan dropped: %s", name_.c_str(),
-                 params_.sources[i].name.c_str(), s.pending_frame.c_str(), params_.output.frame.c_str(),
-                 msg->header.stamp.toSec(), kTransformWait, error.c_str());
-      s.pending.reset();
+      accept(i, msg, viewOf(*msg), output_T_sensor, std::move(posed));
     }
     else
-      s.pending_error = error;
+      dropPending(i, error.empty() ? s.pending_error : error);  // empty: it came after kTransformWait
+    expirePending();
+  }
+  catch (const std::exception& e)  // as scanCallback: no message may take the manager down
+  {
+    ++s.malformed;
+    drop(i, std::string("unexpected error: ") + e.what());
+    if (s.warnings.due("unexpected error"))
+      NODE_ERROR(name_, "source '%s' (%s): scan dropped after an unexpected error (please report): %s",
+                 params_.sources[i].name.c_str(), params_.sources[i].topic.c_str(), e.what());
   }
 }
 
-void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg,
+void MultiLaserScanMergerRos::expirePending()
+{
+  // Only the deadline: the transforms' arrival is the wait's to notice (transformArrived).
+  const ros::WallTime now = ros::WallTime::now();
+  for (std::size_t i = 0; i < sources_.size(); ++i)
+    if (sources_[i].pending && (now - sources_[i].pending_since).toSec() > kTransformWait)
+      dropPending(i, sources_[i].pending_error);
+}
+
+void MultiLaserScanMergerRos::dropPending(std::size_t i, const std::string& error)
+{
+  SourceState& s = sources_[i];
+  ++s.transform_failures;
+  drop(i, "no transform '" + s.pending_frame + "' -> '" + params_.output.frame + "' in time: " + error);
+  if (s.warnings.due("no transform in time"))
+    NODE_WARN(name_, "source '%s': no transform '%s' -> '%s' at %.3f within %.1f s, scan dropped: %s",
+              params_.sources[i].name.c_str(), s.pending_frame.c_str(), params_.output.frame.c_str(),
+              s.pending->header.stamp.toSec(), kTransformWait, error.c_str());
+  s.pending.reset();
+}
+
+void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg, const ScanView& view,
                                      const Eigen::Isometry3d& output_T_sensor, laserscan_common::SelfFilter self_filter)
 {
   // outputs_ keeps the scan (unless older than the one kept: a late pending one is not newer
@@ -385,9 +421,9 @@ void MultiLaserScanMergerRos::accept(std::size_t i, const sensor_msgs::LaserScan
   // consumers that key on stamps take for the same scan: it goes into the next output instead.
   const double now = ros::SteadyTime::now().toSec();
   outputs_->add(i, static_cast<std::int64_t>(msg->header.stamp.toNSec()), now,
-                ScanInMerge{ msg, output_T_sensor, std::move(self_filter) }, now);
-  if (tick_deferred_)
-    publishTick(false);
+                ScanInMerge{ msg, view, output_T_sensor, std::move(self_filter) }, now);
+  if (params_.publish_rate > 0.0 && outputs_->waiting())
+    publishTick(false);  // a tick waits for scans of its stamp: this may be the last one
 }
 
 void MultiLaserScanMergerRos::armSyncTimer(double deadline)
@@ -401,14 +437,6 @@ void MultiLaserScanMergerRos::syncTimerCallback()
 {
   std::lock_guard<std::mutex> lock(mutex_);
   const double now = ros::SteadyTime::now().toSec();
-  if (tick_deferred_)
-  {
-    if (now < tick_deadline_)
-      armSyncTimer(tick_deadline_);  // a timer of an earlier window, or a little early
-    else
-      publishTick(true);
-    return;
-  }
   if (!outputs_->waiting())
     return;  // completed before the window ended
   if (now < outputs_->deadline())
@@ -416,7 +444,10 @@ void MultiLaserScanMergerRos::syncTimerCallback()
     armSyncTimer(outputs_->deadline());  // a timer of an earlier window, or a little early
     return;
   }
-  outputs_->expire(now);
+  if (params_.publish_rate > 0.0)
+    publishTick(true);
+  else
+    outputs_->expire(now);
 }
 
 void MultiLaserScanMergerRos::reportSync(const ros::Time& stamp, const StampSync::Decision& decision, bool waited)
@@ -434,11 +465,11 @@ void MultiLaserScanMergerRos::reportSync(const ros::Time& stamp, const StampSync
     ++s.missing_at_window;
     names += (names.empty() ? "'" : ", '") + sp.name + "'";
     if (s.warnings.due("late for sync_window"))
-      ROS_WARN(
-        "%s: source '%s' (%s): its scan stamped %.6f, the stamp of other sources' scans, was due and did not come "
-        "within sync_window %.3f s: output published without it (it goes into a later output when it comes; a "
-        "larger sync_window waits longer for it, 0 never waits)",
-        name_.c_str(), sp.name.c_str(), sp.topic.c_str(), stamp.toSec(), params_.sync_window);
+      NODE_WARN(name_,
+                "source '%s' (%s): its scan stamped %.6f, the stamp of other sources' scans, was due and did not come "
+                "within sync_window %.3f s: output published without it (it goes into a later output when it comes; a "
+                "larger sync_window waits longer for it, 0 never waits)",
+                sp.name.c_str(), sp.topic.c_str(), stamp.toSec(), params_.sync_window);
   }
   last_incomplete_ = laserscan_common::stampText(stamp.sec, stamp.nsec) + " without " + names;
 }
@@ -455,7 +486,7 @@ void MultiLaserScanMergerRos::odomCallback(const nav_msgs::Odometry::ConstPtr& m
     ++odom_rejected_;
     odom_last_rejection_ = std::string("unexpected error: ") + e.what();
     if (warnings_.due("odometry: unexpected error"))
-      ROS_ERROR("%s: odometry message dropped after an unexpected error (please report): %s", name_.c_str(), e.what());
+      NODE_ERROR(name_, "odometry message dropped after an unexpected error (please report): %s", e.what());
   }
 }
 
@@ -465,16 +496,17 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
   ++odom_received_;
   last_odom_arrival_ = ros::WallTime::now();
   const ros::Time now = ros::Time::now();
-  if (const char* fault = laserscan_common::stampFault(msg->header.stamp.sec, msg->header.stamp.nsec,
-                                                       static_cast<std::int64_t>(now.toNSec())))
+  if (const std::string fault = laserscan_common::stampFault(msg->header.stamp.sec, msg->header.stamp.nsec,
+                                                             static_cast<std::int64_t>(now.toNSec()));
+      !fault.empty())
   {
     ++odom_rejected_;
     const std::string stamp = laserscan_common::stampText(msg->header.stamp.sec, msg->header.stamp.nsec);
-    odom_last_rejection_ = std::string(fault) + " (stamp " + stamp + ")";
+    odom_last_rejection_ = fault + " (stamp " + stamp + ")";
     if (warnings_.due(std::string("odometry: ") + fault))
-      ROS_WARN("%s: odometry (%s) with stamp %s ignored: %s (clock %.3f)", name_.c_str(), odom_topic_.c_str(),
-               stamp.c_str(), fault, now.toSec());
-    retryPending();
+      NODE_WARN(name_, "odometry (%s) with stamp %s ignored: %s (clock %.3f)", odom_topic_.c_str(), stamp.c_str(),
+                fault.c_str(), now.toSec());
+    expirePending();
     return;
   }
   const auto& p = msg->pose.pose;
@@ -485,33 +517,30 @@ void MultiLaserScanMergerRos::handleOdometry(const nav_msgs::Odometry::ConstPtr&
     ++odom_rejected_;
     odom_last_rejection_ = "non-finite pose or zero quaternion";
     if (warnings_.due("odometry: not finite"))
-      ROS_WARN("%s: odometry (%s) with a non-finite pose or a zero quaternion ignored (stamp %.3f)", name_.c_str(),
-               odom_topic_.c_str(), msg->header.stamp.toSec());
-    retryPending();
+      NODE_WARN(name_, "odometry (%s) with a non-finite pose or a zero quaternion ignored (stamp %.3f)",
+                odom_topic_.c_str(), msg->header.stamp.toSec());
+    expirePending();
     return;
   }
   if (r == OdometryBuffer::AddResult::kClearedBackwards)
   {
     if (warnings_.due("odometry: jumped backwards"))
-      ROS_WARN("%s: odometry time jumped backwards (to %.3f): odometry buffer cleared", name_.c_str(),
-               msg->header.stamp.toSec());
+      NODE_WARN(name_, "odometry time jumped backwards (to %.3f): odometry buffer cleared", msg->header.stamp.toSec());
     for (auto& s : sources_)
       s.scan.reset();  // they belong to the other timeline
-    last_published_ = ros::Time();
     outputs_->reset();
-    tick_deferred_ = false;
   }
   if (r != OdometryBuffer::AddResult::kOutOfOrder)
     odom_newest_ = msg->header.stamp;
   odom_child_frame_ = odom_child_frame_id_(msg->child_frame_id);
-  retryPending();
+  expirePending();
 }
 
 void MultiLaserScanMergerRos::timerCallback(const ros::TimerEvent&)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   checkTimeJump();
-  retryPending();
+  expirePending();
   publishTick(false);
 }
 
@@ -519,54 +548,22 @@ void MultiLaserScanMergerRos::publishTick(bool at_deadline)
 {
   // With a rate, the output is synchronised to the newest data there is: the newest scan, or
   // the newest odometry when it is newer (everything moved to it). Never now(): no pose is known
-  // for it. A tick with nothing newer than the last output publishes nothing.
-  bool any = false;
+  // for it. Whether it is published (nothing newer than the last output, scans of the newest
+  // stamp still due within sync_window) is outputs_' decision, as with publish_rate 0.
   ros::Time t_out;
   for (const auto& s : sources_)
     if (s.scan)
-    {
       t_out = std::max(t_out, s.scan->header.stamp);
-      any = true;
-    }
-  if (!any)
-  {
-    tick_deferred_ = false;
-    return;
-  }
   if (!odom_.empty())
     t_out = std::max(t_out, odom_newest_);
-  if (!last_published_.isZero() && t_out <= last_published_)
-  {
-    tick_deferred_ = false;
-    return;
-  }
-  // Scans of the newest scan's stamp still due from other sources: the tick waits for them, up
-  // to the end of the window that the first of them opened.
-  const double now = ros::SteadyTime::now().toSec();
-  const bool complete = outputs_->complete(now);
-  const StampSync::Decision& decision = outputs_->lastDecision();
-  if (!complete && !at_deadline)
-  {
-    if (!tick_deferred_)
-    {
-      tick_deferred_ = true;
-      tick_deadline_ = decision.deadline;
-      for (std::size_t j : decision.due)
-        ++sources_[j].waited_for;
-      armSyncTimer(decision.deadline);
-    }
-    return;
-  }
-  reportSync(t_out, decision, tick_deferred_);
-  tick_deferred_ = false;
-  mergeAndPublish(t_out);
+  outputs_->tick(static_cast<std::int64_t>(t_out.toNSec()), ros::SteadyTime::now().toSec(), at_deadline);
 }
 
 void MultiLaserScanMergerRos::warnNoRobotTransform(const std::string& error)
 {
   if (warnings_.due("no transform of the odometry child frame"))
-    ROS_WARN("%s: no transform '%s' -> '%s' (odometry child frame): motion compensation skipped: %s", name_.c_str(),
-             odom_child_frame_.c_str(), params_.output.frame.c_str(), error.c_str());
+    NODE_WARN(name_, "no transform '%s' -> '%s' (odometry child frame): motion compensation skipped: %s",
+              odom_child_frame_.c_str(), params_.output.frame.c_str(), error.c_str());
 }
 
 bool MultiLaserScanMergerRos::robotToOutput(Eigen::Isometry3d& out)
@@ -601,7 +598,8 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
     inputs_[i].present = static_cast<bool>(sources_[i].scan);
     if (inputs_[i].present)
     {
-      inputs_[i].scan = viewOf(*sources_[i].scan);
+      inputs_[i].scan = sources_[i].view;
+      inputs_[i].checked = true;  // handleScan did
       inputs_[i].output_T_sensor = sources_[i].output_T_sensor;
       inputs_[i].self_filter = &sources_[i].scan_self_filter;
     }
@@ -612,26 +610,28 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
   {
     odom = &odom_;
     if (t_out - odom_.newestTime() > kOdometryStale && warnings_.due("odometry stopped"))
-      ROS_WARN(
-        "%s: odometry stopped: the newest is %.2f s older than the output time; motion after it is not "
-        "compensated",
-        name_.c_str(), t_out - odom_.newestTime());
+      NODE_WARN(name_,
+                "odometry stopped: the newest is %.2f s older than the output time; motion after it is not "
+                "compensated",
+                t_out - odom_.newestTime());
   }
   else if (!params_.odom_topic.empty() && odom_.empty() && (odom_received_ == 0 || odom_rejected_ < odom_received_))
   {
     if (warnings_.due("no odometry yet", 10.0))
-      ROS_WARN("%s: no odometry yet on '%s': merging without motion compensation", name_.c_str(), odom_topic_.c_str());
+      NODE_WARN(name_, "no odometry yet on '%s': merging without motion compensation", odom_topic_.c_str());
   }
   else if (!params_.odom_topic.empty() && odom_.empty())
   {
     if (warnings_.due("no usable odometry", 10.0))
-      ROS_WARN(
-        "%s: none of the %zu odometry messages on '%s' was usable (last: %s): merging without motion "
-        "compensation",
-        name_.c_str(), odom_received_, odom_topic_.c_str(), odom_last_rejection_.c_str());
+      NODE_WARN(name_,
+                "none of the %zu odometry messages on '%s' was usable (last: %s): merging without motion "
+                "compensation",
+                odom_received_, odom_topic_.c_str(), odom_last_rejection_.c_str());
   }
-  core_->merge(inputs_, t_out, odom, odom != nullptr ? output_T_robot : Eigen::Isometry3d::Identity(), merged_,
-               status_);
+  // The core writes straight into the message to publish.
+  auto msg = boost::make_shared<sensor_msgs::LaserScan>();
+  core_->merge(inputs_, t_out, odom, odom != nullptr ? output_T_robot : Eigen::Isometry3d::Identity(), msg->ranges,
+               msg->intensities, status_);
   for (std::size_t i = 0; i < sources_.size(); ++i)
   {
     if (status_[i] != SourceStatus::kTimedOut)
@@ -644,11 +644,10 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
       s.last_timed_out_stamp = stamp;
     }
     if (s.warnings.due("timed out"))
-      ROS_WARN("%s: source '%s': newest scan is %.2f s old (timeout %.2f s): merged without it", name_.c_str(),
-               params_.sources[i].name.c_str(), t_out - stamp, params_.sources[i].timeout);
+      NODE_WARN(name_, "source '%s': newest scan is %.2f s old (timeout %.2f s): merged without it",
+                params_.sources[i].name.c_str(), t_out - stamp, params_.sources[i].timeout);
   }
 
-  auto msg = boost::make_shared<sensor_msgs::LaserScan>();
   msg->header.stamp = stamp;
   msg->header.frame_id = params_.output.frame;
   msg->angle_min = static_cast<float>(params_.output.angle_min);
@@ -659,9 +658,6 @@ void MultiLaserScanMergerRos::mergeAndPublish(const ros::Time& stamp)
   msg->scan_time = params_.publish_rate > 0.0 ? static_cast<float>(1.0 / params_.publish_rate) : 0.0f;
   msg->range_min = static_cast<float>(params_.output.range_min);
   msg->range_max = static_cast<float>(params_.output.range_max);
-  msg->ranges = merged_.ranges;
-  msg->intensities = merged_.intensities;
-  last_published_ = stamp;
   ++outputs_published_;
   pub_.publish(sensor_msgs::LaserScan::ConstPtr(msg));  // zero-copy in a manager; not touched afterwards
 }
@@ -671,10 +667,7 @@ void MultiLaserScanMergerRos::sourceDiagnostics(std::size_t i, diagnostic_update
   std::lock_guard<std::mutex> lock(mutex_);
   SourceState& s = sources_[i];
   const SourceParams& sp = params_.sources[i];
-  const ros::WallTime now = ros::WallTime::now();
-  const double window = std::max(1e-3, (now - last_report_).toSec());
-  const double rate = static_cast<double>(s.received - s.received_at_last_report) / window;
-  // The report window is shared by all tasks: the last task (odometry) moves it on.
+  const double rate = s.rate.rate(s.received);
   // In seconds (double): no ros::Duration of stamps, which may be far apart.
   const double age = s.scan ? ros::Time::now().toSec() - s.scan->header.stamp.toSec() : -1.0;
   const std::size_t dropped_now = s.dropped - s.dropped_at_last_report;
@@ -735,9 +728,6 @@ void MultiLaserScanMergerRos::outputDiagnostics(diagnostic_updater::DiagnosticSt
 void MultiLaserScanMergerRos::odometryDiagnostics(diagnostic_updater::DiagnosticStatusWrapper& stat)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  for (auto& s : sources_)
-    s.received_at_last_report = s.received;
-  last_report_ = ros::WallTime::now();
   if (params_.odom_topic.empty())
   {
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "motion compensation disabled (odom_topic empty)");

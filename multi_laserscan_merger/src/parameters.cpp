@@ -7,7 +7,12 @@ namespace multi_laserscan_merger
 
 std::size_t OutputParams::beamCount() const
 {
-  return static_cast<std::size_t>(std::lround((angle_max - angle_min) / angle_increment)) + 1;
+  return laserscan_common::beamCount(angle_min, angle_max, angle_increment);
+}
+
+float OutputParams::noReturnValue() const
+{
+  return laserscan_common::noReturnValue(use_inf, range_max, inf_epsilon);
 }
 
 void OutputParams::validate() const
@@ -16,26 +21,9 @@ void OutputParams::validate() const
     throw ParameterError("output_frame", "must not be empty");
   if (frame[0] == '/')
     throw ParameterError("output_frame", "must not start with '/' (tf2 frame ids have no leading slash)");
-  if (!std::isfinite(angle_min) || angle_min < -2.0 * kPi || angle_min > 2.0 * kPi)
-    throw ParameterError("angle_min", "must be finite and within [-2*pi, 2*pi]");
-  if (!std::isfinite(angle_max) || angle_max < -2.0 * kPi || angle_max > 2.0 * kPi)
-    throw ParameterError("angle_max", "must be finite and within [-2*pi, 2*pi]");
-  if (angle_min >= angle_max)
-    throw ParameterError("angle_min", "must be smaller than angle_max");
-  if (angle_max - angle_min > 2.0 * kPi + 1e-6)
-    throw ParameterError("angle_max", "angle_max - angle_min must not exceed 2*pi");
-  if (!std::isfinite(angle_increment) || angle_increment <= 0.0)
-    throw ParameterError("angle_increment", "must be a finite value > 0");
-  if ((angle_max - angle_min) / angle_increment > 1e6)
-    throw ParameterError("angle_increment", "gives more than 1e6 beams");
-  if (std::isnan(range_min) || range_min < 0.0)
-    throw ParameterError("range_min", "must be >= 0");
-  if (std::isnan(range_max) || range_min >= range_max)
-    throw ParameterError("range_min", "must be smaller than range_max");
-  if (!use_inf && !std::isfinite(range_max))
-    throw ParameterError("range_max", "must be finite when use_inf is false (no return = range_max + inf_epsilon)");
-  if (!std::isfinite(inf_epsilon) || inf_epsilon < 0.0)
-    throw ParameterError("inf_epsilon", "must be a finite value >= 0");
+  // The same rules as the converters' scans: one home, laserscan_common.
+  laserscan_common::validateScanGeometry(angle_min, angle_max, angle_increment, range_min, range_max, use_inf,
+                                         inf_epsilon);
   if (finite_only && use_inf)
     throw ParameterError("finite_only", "needs use_inf: false (no return is then range_max + inf_epsilon)");
   if (finite_only && !(range_min > 0.0))

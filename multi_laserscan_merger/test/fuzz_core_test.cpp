@@ -147,18 +147,17 @@ void feedOdometry(fuzz::Generator& g, OdometryBuffer& odom, double& t, Eigen::Ve
   }
 }
 
-void expectMergeInvariants(const MergerCore& core, const std::vector<SourceInput>& inputs, double t_out,
+void expectMergeInvariants(const MergerCore& core, const std::vector<SourceInput>& inputs, double /*t_out*/,
                            const MergedScan& out, const std::vector<SourceStatus>& status)
 {
   const OutputParams& o = core.params().output;
   ASSERT_EQ(out.ranges.size(), o.beamCount());
-  ASSERT_EQ(out.stamp, t_out);  // exactly the time asked for
   ASSERT_TRUE(out.intensities.empty() || out.intensities.size() == out.ranges.size());
   ASSERT_EQ(status.size(), core.params().sources.size());
   for (std::size_t s = 0; s < status.size(); ++s)
     if (inputs[s].present)
     {
-      ASSERT_EQ(status[s] == SourceStatus::kInvalid, scanFault(inputs[s].scan) != nullptr) << "source " << s;
+      ASSERT_EQ(status[s] == SourceStatus::kInvalid, !scanFault(inputs[s].scan).empty()) << "source " << s;
     }
     else
     {

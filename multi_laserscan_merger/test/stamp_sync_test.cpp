@@ -347,34 +347,64 @@ TEST(SyncWindow, ATimedOutSourceIsNotWaitedFor)
   EXPECT_DOUBLE_EQ(d.deadline, 0.31);
 }
 
-// publish_rate > 0: a tick between the scans of one stamp is told to wait for the rest (until the
-// first one's arrival + window), and may publish once they are in.
+// publish_rate > 0: a tick between the scans of one stamp waits for the rest (once, until the
+// first one's arrival + window) and publishes once they are in, or at the window's end without
+// the late ones; a tick with nothing newer than the last output publishes nothing.
 TEST(SyncWindow, ATickWaitsForScansOnTheirWay)
 {
   SyncedOutputs<int>::Handlers h;
   std::vector<std::size_t> merged;
+  std::vector<double> waits;
+  struct Published
+  {
+    std::int64_t stamp;
+    std::vector<std::size_t> missing;
+    bool waited;
+  };
+  std::vector<Published> published;
   h.merge = [&](std::size_t s, const int&) { merged.push_back(s); };
-  h.wait = [](std::int64_t, const StampSync::Decision&) { ADD_FAILURE() << "no wait with a timer"; };
-  h.publish = [](std::int64_t, const StampSync::Decision&, bool) { ADD_FAILURE() << "the timer publishes"; };
+  h.wait = [&](std::int64_t, const StampSync::Decision& d) { waits.push_back(d.deadline); };
+  h.publish = [&](std::int64_t t, const StampSync::Decision& d, bool waited) {
+    published.push_back({ t, d.due, waited });
+  };
   SyncedOutputs<int> outputs(0.01, { 1.0, 1.0, 1.0 }, false, h);
   const std::int64_t p = kSecond / 40;
   for (int f = 0; f < 3; ++f)
     for (std::size_t s = 0; s < 3; ++s)
       outputs.add(s, kStart + f * p, f * 0.025 + 0.001 * s, 0, f * 0.025 + 0.001 * s);
-  EXPECT_TRUE(outputs.complete(0.06));
+  EXPECT_TRUE(published.empty());  // only ticks publish
+  outputs.tick(kStart + 2 * p, 0.06, false);
+  ASSERT_EQ(published.size(), 1u);
+  EXPECT_EQ(published[0].stamp, kStart + 2 * p);
+  EXPECT_FALSE(published[0].waited);
+  outputs.tick(kStart + 2 * p, 0.07, false);  // nothing newer
+  EXPECT_EQ(published.size(), 1u);
+
   outputs.add(1, kStart + 3 * p, 0.0752, 0, 0.0752);
-  EXPECT_FALSE(outputs.complete(0.0753));
+  outputs.tick(kStart + 3 * p, 0.0753, false);
+  EXPECT_EQ(published.size(), 1u);
+  ASSERT_EQ(waits.size(), 1u);
+  EXPECT_DOUBLE_EQ(waits[0], 0.0852);
+  EXPECT_TRUE(outputs.waiting());
   EXPECT_DOUBLE_EQ(outputs.deadline(), 0.0852);
-  EXPECT_EQ(outputs.lastDecision().due, (std::vector<std::size_t>{ 0, 2 }));
   outputs.add(0, kStart + 3 * p, 0.0760, 0, 0.0760);
-  EXPECT_FALSE(outputs.complete(0.0761));
+  outputs.tick(kStart + 3 * p, 0.0761, false);
+  EXPECT_EQ(waits.size(), 1u);  // still the same wait
   outputs.add(2, kStart + 3 * p, 0.0790, 0, 0.0790);
-  EXPECT_TRUE(outputs.complete(0.0791));
+  outputs.tick(kStart + 3 * p, 0.0791, false);
+  ASSERT_EQ(published.size(), 2u);
+  EXPECT_TRUE(published[1].waited);
+  EXPECT_TRUE(published[1].missing.empty());
+  EXPECT_FALSE(outputs.waiting());
   EXPECT_EQ(merged.size(), 12u);  // every scan went straight into the merge
+
   outputs.add(1, kStart + 4 * p, 0.1002, 0, 0.1002);
-  EXPECT_FALSE(outputs.complete(0.1003));
-  EXPECT_TRUE(outputs.complete(0.1103));  // the window ended: publish without the late ones
-  EXPECT_EQ(outputs.lastDecision().due, (std::vector<std::size_t>{ 0, 2 }));
+  outputs.tick(kStart + 4 * p, 0.1003, false);
+  EXPECT_EQ(published.size(), 2u);
+  outputs.tick(kStart + 4 * p, 0.1103, true);  // the window ended: publish without the late ones
+  ASSERT_EQ(published.size(), 3u);
+  EXPECT_EQ(published[2].missing, (std::vector<std::size_t>{ 0, 2 }));
+  EXPECT_TRUE(published[2].waited);
 }
 
 // A jump back of the timeline (bag loop) forgets the last output: the new timeline's first

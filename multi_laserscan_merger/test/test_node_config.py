@@ -566,6 +566,16 @@ scan(lidar, 'lidar', T + rospy.Duration(0.2), -0.5, 0.5)
 wait_until(lambda: status.get('transform failures') == '1', 'the superseded scan counted', timeout=5.0)
 print('transform_failures', status.get('transform failures'))
 print('last_drop', status.get('last drop reason', '').replace(' ', '_'))
+# A scan whose transform comes after it waits for it (laserscan_common's TransformWait) and is
+# merged once it is there, with no further scan or odometry to retry it.
+before = len(merged)
+scan(lidar, 'lidar', T + rospy.Duration(2.0), -0.5, 0.5)
+time.sleep(0.05)
+tf.publish(TFMessage(transforms=[mount(T + rospy.Duration(2.1), 1.0)]))
+deadline = time.time() + 5.0
+while len(merged) == before and time.time() < deadline:
+    time.sleep(0.02)
+print('after_its_transform', len(merged) - before, merged[-1].header.stamp == T + rospy.Duration(2.0))
 sys.stdout.flush()
 '''
 
@@ -584,6 +594,8 @@ def test_a_discarded_older_scan_leaves_the_kept_scans_mount(ros_env):
     # A pending scan superseded by a newer one is counted, with the reason.
     assert words[words.index('transform_failures') + 1] == '1', feed.stdout + out
     assert 'before_a_newer_scan_was_merged' in words[words.index('last_drop') + 1], feed.stdout + out
+    # A scan that waited for its transform is merged when the transform comes.
+    assert words[words.index('after_its_transform') + 1:][:2] == ['1', 'True'], feed.stdout + out
 
 
 SHARED_MANAGER_FEED = r'''
@@ -641,10 +653,10 @@ def test_one_sources_warning_hides_no_other_sources_or_mergers_in_a_manager(ros_
                 env=ros_env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         burst = 5
         ranges_fault = 'malformed scan dropped: ranges length does not match'
-        expected = [["/merger_sa: source 'front'", ranges_fault],
-                    ["/merger_sa: source 'front'", 'malformed scan dropped: empty frame_id'],
-                    ["/merger_sa: source 'rear'", ranges_fault],
-                    ["/merger_sb: source 'front'", ranges_fault]]
+        expected = [["[/merger_sa] source 'front'", ranges_fault],
+                    ["[/merger_sa] source 'front'", 'malformed scan dropped: empty frame_id'],
+                    ["[/merger_sa] source 'rear'", ranges_fault],
+                    ["[/merger_sb] source 'front'", ranges_fault]]
         feed = subprocess.run(['/usr/bin/python3', '-c', SHARED_MANAGER_FEED, str(burst), json.dumps(expected)],
                               env=ros_env, capture_output=True, text=True, timeout=180)
         alive = manager.poll() is None
@@ -665,7 +677,7 @@ def test_one_sources_warning_hides_no_other_sources_or_mergers_in_a_manager(ros_
     for parts in expected:  # each reported at once, none hidden by another's throttle
         assert any(all(p in w for p in parts) for w in warnings), (parts, warnings)
     # Still throttled per source and fault: the burst is not one warning per scan.
-    front = [w for w in warnings if "/merger_sa: source 'front'" in w and ranges_fault in w]
+    front = [w for w in warnings if "[/merger_sa] source 'front'" in w and ranges_fault in w]
     assert 1 <= len(front) < burst, warnings
 
 

@@ -46,12 +46,8 @@ public:
     const bool is_static = m.getTopic() == "/tf_static";
     for (const auto& t : msg->transforms)
     {
-      std::string fault;
-      if (const char* f = gate_.fault(t, is_static, static_cast<std::int64_t>(m.getTime().toNSec()), max_ahead_))
-      {
-        fault = f;
-      }
-      else
+      std::string fault = gate_.fault(t, is_static, static_cast<std::int64_t>(m.getTime().toNSec()), max_ahead_);
+      if (fault.empty())
       {
         try
         {

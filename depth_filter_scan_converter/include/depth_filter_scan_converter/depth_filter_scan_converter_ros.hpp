@@ -13,11 +13,9 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/message_filter.h>
 
 #include <chrono>
 #include <cstdint>
-#include <deque>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -34,9 +32,18 @@
 #include "laserscan_common/parameter_reader.hpp"
 #include "laserscan_common/self_filter.hpp"
 #include "laserscan_common/transform_reader.hpp"
+#include "laserscan_common/transform_wait.hpp"
 
 namespace depth_filter_scan_converter
 {
+/// A depth image with the camera_info of its stamp, as it waits for its transform.
+struct CameraFrame
+{
+  std_msgs::Header header;  ///< the image's
+  sensor_msgs::Image::ConstPtr image;
+  sensor_msgs::CameraInfo::ConstPtr info;
+};
+
 /// Reads every field of Parameters' table from the private namespace (defaults from the struct)
 /// and validates. Throws laserscan_common::ParameterError naming the parameter that is wrong.
 Parameters loadParameters(laserscan_common::ParameterReader& reader);
@@ -80,49 +87,32 @@ private:
   using Config = DepthFilterScanConverterConfig;
   using ImageSync = message_filters::Synchronizer<message_filters::sync_policies::ExactTime<Image, CameraInfo>>;
 
-  /// When a message waiting for its transform came in (zero: it did not wait), and (images) its
-  /// camera_info.
-  struct Arrival
-  {
-    // Held, not just its address: a freed message's address can be reused by a newer one,
-    // which would then take the old record (and its camera_info).
-    boost::shared_ptr<const void> message;
-    ros::Time time;
-    CameraInfo::ConstPtr info;
-  };
-
   /// The lazy subscription's actions (its lock held).
   void subscribeInput();
   void unsubscribeInput();
-  /// Both inputs: header checks, then into the tf filter.
-  template <class M>
-  void arrived(const boost::shared_ptr<const M>& message, const CameraInfo::ConstPtr& info,
-               tf2_ros::MessageFilter<M>& filter);
-  template <class M>
-  void transformFailed(const boost::shared_ptr<const M>& message,
-                       tf2_ros::filter_failure_reasons::FilterFailureReason reason);
+  /// A cloud from the subscription: header checks, then converted or left to wait for its transform.
+  void cloudArrived(const Cloud::ConstPtr& cloud);
+  /// A message that waited for its transform in vain (why: as transformWaitFailure says).
+  void transformFailed(const std_msgs::Header& header, const char* why);
   /// CloudReading::InPlace: takes a cloud whose bytes are still in roscpp's receive buffer and
   /// converts it (or drops it for a header that cannot reach tf2) if its transform is there; false
-  /// leaves it to the usual path (arrived), copied, to wait for its transform.
+  /// leaves it to the usual path (cloudArrived), copied, to wait for its transform.
   bool convertInPlace(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size);
-  /// Both inputs, from the tf filter once the transform is there.
-  template <class M>
-  void process(const boost::shared_ptr<const M>& message);
   /// Freshness, view, projection, publishing; mutex_ held. `bytes` and `size` are the message's
-  /// data, wherever they are. arrival.time is zero for a message that never waited for its
-  /// transform.
+  /// data, wherever they are; `info` is an image's camera_info (null for a cloud). `received` is
+  /// zero for a message that never waited for its transform.
   template <class M>
-  void convert(const M& message, const std::uint8_t* bytes, std::size_t size, const Arrival& arrival);
-  std::string viewOf(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size, const Arrival& arrival,
+  void convert(const M& message, const std::uint8_t* bytes, std::size_t size, const CameraInfo::ConstPtr& info,
+               const ros::Time& received);
+  std::string viewOf(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size, const CameraInfo::ConstPtr& info,
                      CloudView& view);
-  std::string viewOf(const Image& image, const std::uint8_t* bytes, std::size_t size, const Arrival& arrival,
+  std::string viewOf(const Image& image, const std::uint8_t* bytes, std::size_t size, const CameraInfo::ConstPtr& info,
                      DepthImageView& view);
   void imageArrived(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info);
   /// The synchronizer let go of an image whose camera_info never came (or of a lone camera_info).
   void imageDropped(const Image::ConstPtr& image, const CameraInfo::ConstPtr& info);
   void reconfigure(Config& config, std::uint32_t level);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
-  bool takeArrival(const void* message, Arrival& arrival);
   /// Why the header cannot reach tf2 ("" when it can); warns once about a leading '/'.
   std::string headerProblem(const std_msgs::Header& header);
   /// What a new input's header allows (mutex_ held): dropped as malformed (counted and warned
@@ -148,13 +138,13 @@ private:
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<laserscan_common::TransformReader> tf_reader_;  // feeds tf_buffer_ from /tf and /tf_static
   ros::Subscriber input_sub_;  // the clouds or the depth images (copy_once_subscription.hpp)
-  std::unique_ptr<tf2_ros::MessageFilter<Cloud>> cloud_filter_;
+  std::unique_ptr<laserscan_common::TransformWait<Cloud>> cloud_wait_;
   // Images wait for the camera_info of their stamp (ExactTime, queue_size frames), as
   // image_transport's CameraSubscriber does, then for their transform.
   message_filters::PassThrough<Image> image_in_;  // input_sub_'s images, into the synchronizer
   message_filters::Subscriber<CameraInfo> info_sub_;
   std::unique_ptr<ImageSync> image_sync_;
-  std::unique_ptr<tf2_ros::MessageFilter<Image>> image_filter_;
+  std::unique_ptr<laserscan_common::TransformWait<CameraFrame>> image_wait_;
   ros::Publisher scan_pub_, cloud_pub_;
   LazySubscription lazy_;
 
@@ -165,7 +155,6 @@ private:
   /// Frames a message waits for: reference_frame, then the self filter's.
   std::vector<std::string> tf_targets_;
   std::vector<float> kept_points_;
-  std::deque<Arrival> arrivals_;  // of the messages waiting in the tf filter
 
   std::unique_ptr<dynamic_reconfigure::Server<Config>> reconfigure_server_;
   bool first_reconfigure_ = true;
@@ -179,8 +168,16 @@ private:
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0;
   std::string last_malformed_reason_, last_tf_reason_;
   laserscan_common::FrameIdNormaliser frame_id_;  // warns once about a leading '/'
-  WarningThrottle warnings_;          // per kind of fault: a missing transform, a late cloud, each malformed kind, ...
-  ConverterDiagnostics diagnostics_;  // last: its timer may call diagnose() as soon as it exists
+  WarningThrottle warnings_;     // per kind of fault: a missing transform, a late cloud, each malformed kind, ...
+  NodeDiagnostics diagnostics_;  // last: its timer may call diagnose() as soon as it exists
 };
 
 }  // namespace depth_filter_scan_converter
+
+namespace ros::message_traits
+{
+// A CameraFrame waits in tf2_ros's MessageFilter by its header, as the image would.
+template <>
+struct HasHeader<depth_filter_scan_converter::CameraFrame> : TrueType
+{};
+}  // namespace ros::message_traits

@@ -54,7 +54,7 @@ private:
   double last_stamp_ = 0.0;
   std::string last_malformed_reason_;
   WarningThrottle warn_malformed_;
-  ConverterDiagnostics diagnostics_;  // last: its timer may call diagnose() as soon as it exists
+  NodeDiagnostics diagnostics_;  // last: its timer may call diagnose() as soon as it exists
 };
 
 }  // namespace depth_filter_scan_converter

@@ -33,7 +33,7 @@ ros::WallTimer diagnosticsTimer(ros::NodeHandle& nh, Updater& updater, const std
                               {
                                 if (due(last_warning))
                                   ROS_WARN(
-                                    "%s: diagnostics not published: %s (clock %.3f s; the end of ROS time is "
+                                    "[%s] diagnostics not published: %s (clock %.3f s; the end of ROS time is "
                                     "2^32 s)",
                                     name.c_str(), e.what(), ros::Time::now().toSec());
                               }

@@ -60,16 +60,16 @@ struct StampLimits
   double end_margin = 0.0;
 };
 
-/// nullptr when a message stamp (ROS's sec and nsec) is usable for `use` against the clock now_ns
-/// (integer nanoseconds), otherwise a static description of the fault (no allocation: also
-/// called on hot paths). Every stamp needs nsec < 1e9.
-inline const char* stampFault(std::uint32_t sec, std::uint32_t nsec, std::int64_t now_ns,
+/// "" when a message stamp (ROS's sec and nsec) is usable for `use` against the clock now_ns
+/// (integer nanoseconds), otherwise what is wrong with it (the one error convention:
+/// CONTRIBUTING.md). Every stamp needs nsec < 1e9.
+inline std::string stampFault(std::uint32_t sec, std::uint32_t nsec, std::int64_t now_ns,
                               StampUse use = StampUse::kMeasurement, const StampLimits& limits = {})
 {
   if (nsec >= 1000000000u)
     return "stamp nsecs >= 1e9 (not normalised)";
   if (use == StampUse::kStaticTransform)
-    return nullptr;
+    return {};
   if (use == StampUse::kMeasurement)
   {
     if (sec == 0 && nsec == 0)
@@ -87,7 +87,7 @@ inline const char* stampFault(std::uint32_t sec, std::uint32_t nsec, std::int64_
     static_cast<double>(std::numeric_limits<std::uint32_t>::max()) - std::ceil(limits.end_margin);
   if (static_cast<double>(sec) + nsec * 1e-9 > last_usable)
     return "stamp too close to the end of ROS time (2^32 s) for time arithmetic";
-  return nullptr;
+  return {};
 }
 
 // ---------------------------------------------------------------- frame ids
@@ -143,12 +143,12 @@ bool transformIsFinite(const Transform& t)
          std::isfinite(t.rotation.w);
 }
 
-/// nullptr when tf2 can store the transform (geometry_msgs::TransformStamped-like), otherwise a
-/// static description of why not. tf2 checks most of these too, but logs each refusal without
+/// "" when tf2 can store the transform (geometry_msgs::TransformStamped-like), otherwise why
+/// not. tf2 checks most of these too, but logs each refusal without
 /// throttle (a faulty publisher at 100 Hz floods the log); an infinite translation it does not
 /// refuse at all.
 template <class TransformStamped>
-const char* transformFault(const TransformStamped& t)
+std::string transformFault(const TransformStamped& t)
 {
   if (t.header.frame_id.empty() || t.child_frame_id.empty())
     return "frame_id or child_frame_id is empty";
@@ -160,7 +160,7 @@ const char* transformFault(const TransformStamped& t)
   // tf2's own limit for a normalised quaternion.
   if (std::fabs(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w - 1.0) > 0.01)
     return "the rotation is not a unit quaternion";
-  return nullptr;
+  return {};
 }
 
 /// Decides which /tf and /tf_static transforms go into a tf2 buffer: the transform checks, the
@@ -175,13 +175,14 @@ class TransformGate
 {
 public:
   template <class TransformStamped>
-  const char* fault(const TransformStamped& t, bool is_static, std::int64_t now_ns, std::int64_t max_ahead_ns)
+  std::string fault(const TransformStamped& t, bool is_static, std::int64_t now_ns, std::int64_t max_ahead_ns)
   {
-    if (const char* f = transformFault(t))
+    if (std::string f = transformFault(t); !f.empty())
       return f;
-    if (const char* f = stampFault(t.header.stamp.sec, t.header.stamp.nsec, now_ns,
+    if (std::string f = stampFault(t.header.stamp.sec, t.header.stamp.nsec, now_ns,
                                    is_static ? StampUse::kStaticTransform : StampUse::kMeasurement,
-                                   StampLimits{ max_ahead_ns, static_cast<double>(max_ahead_ns) * 1e-9 }))
+                                   StampLimits{ max_ahead_ns, static_cast<double>(max_ahead_ns) * 1e-9 });
+        !f.empty())
       return f;
     std::string child = tf2FrameId(t.child_frame_id);
     if (is_static)
@@ -189,7 +190,7 @@ public:
     else if (static_parents_.count(child) != 0)
       return "the child frame has a static transform (from /tf_static), which this /tf transform would replace "
              "for good";
-    return nullptr;
+    return {};
   }
 
   /// The parent of a child frame held static, or "" when it is not.

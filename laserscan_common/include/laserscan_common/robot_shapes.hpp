@@ -19,9 +19,9 @@ using MeshResolver = std::function<std::string(const std::string& uri)>;
 std::string resolveFileUri(const std::string& uri);
 
 /// Bounding box of the vertices of a mesh file (binary or ASCII STL, Wavefront OBJ), in the
-/// mesh's own units. Returns false and says why when the file is missing, unreadable, of
+/// mesh's own units. Returns why not ("" when read) when the file is missing, unreadable, of
 /// another format, or has no vertex.
-bool meshBounds(const std::string& path, Eigen::Vector3d& lo, Eigen::Vector3d& hi, std::string& why);
+std::string meshBounds(const std::string& path, Eigen::Vector3d& lo, Eigen::Vector3d& hi);
 
 /// One shape per collision element of the links (every link that has one when `links` is
 /// empty), each with `padding`. A mesh becomes the bounding box of its scaled vertices; a mesh

@@ -14,6 +14,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/node_log.hpp"
 #include "laserscan_common/throttle.hpp"
 
 namespace laserscan_common
@@ -47,9 +48,9 @@ public:
       std::string why;
       {
         std::lock_guard<std::mutex> lock(mutex_);
-        if (const char* fault = gate_.fault(t, is_static, now, max_ahead))
+        why = gate_.fault(t, is_static, now, max_ahead);
+        if (!why.empty())
         {
-          why = fault;
           const std::string parent = gate_.staticParent(t.child_frame_id);
           if (!is_static && !parent.empty() && parent != tf2FrameId(t.header.frame_id))
             why += " (its static parent is '" + parent + "')";
@@ -91,8 +92,9 @@ private:
       if (!warned_.due(pair))
         return;
     }
-    ROS_WARN("%s: transform %s from %s on %s with stamp %s ignored: %s", name_.c_str(), pair.c_str(), authority.c_str(),
-             is_static ? "/tf_static" : "/tf", stampText(t.header.stamp.sec, t.header.stamp.nsec).c_str(), why.c_str());
+    NODE_WARN(name_, "transform %s from %s on %s with stamp %s ignored: %s", pair.c_str(), authority.c_str(),
+              is_static ? "/tf_static" : "/tf", stampText(t.header.stamp.sec, t.header.stamp.nsec).c_str(),
+              why.c_str());
   }
 
   tf2::BufferCore& buffer_;

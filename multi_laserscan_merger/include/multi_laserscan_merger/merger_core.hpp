@@ -37,9 +37,9 @@ struct ScanView
 /// A scan whose beams span more than this (|time_increment| * beams, s) is malformed.
 constexpr double kMaxScanDuration = 60.0;
 
-/// nullptr when the scan is usable, otherwise a static description of the fault
-/// (no allocation: also called on the hot path).
-const char* scanFault(const ScanView& scan);
+/// "" when the scan is usable, otherwise what is wrong with it (the one error convention:
+/// CONTRIBUTING.md; a usable scan's empty string allocates nothing).
+std::string scanFault(const ScanView& scan);
 
 /// True when the point (x, y) lies inside the polygon (crossing number; any simple polygon).
 bool insidePolygon(const std::vector<std::array<double, 2>>& polygon, double x, double y);
@@ -74,6 +74,9 @@ struct SourceInput
 {
   bool present = false;
   ScanView scan;
+  /// The caller found scanFault(scan) == nullptr when the scan arrived: the merge does not check
+  /// it again (a kept scan goes into several merges). false: the merge checks it (kInvalid).
+  bool checked = false;
   /// Output frame <- sensor frame at scan.stamp (full 3D; moving sensors allowed).
   Eigen::Isometry3d output_T_sensor = Eigen::Isometry3d::Identity();
   /// The robot's own parts posed in the sensor's frame (nullptr or empty: none): a return whose
@@ -89,9 +92,9 @@ enum class SourceStatus : std::uint8_t
   kInvalid    ///< scanFault() found a fault
 };
 
+/// The merged ranges (the ROS glue has the core write straight into its outgoing message instead).
 struct MergedScan
 {
-  double stamp = 0.0;
   std::vector<float> ranges;
   std::vector<float> intensities;  ///< empty when no used source had intensities
 };
@@ -114,7 +117,15 @@ public:
   /// of another source's return in the same bin is dropped whole, otherwise fused as usual.
   /// No memory is allocated once the buffers have grown to size.
   void merge(const std::vector<SourceInput>& inputs, double t_out, const OdometryBuffer* odom,
-             const Eigen::Isometry3d& output_T_robot, MergedScan& out, std::vector<SourceStatus>& status);
+             const Eigen::Isometry3d& output_T_robot, MergedScan& out, std::vector<SourceStatus>& status)
+  {
+    merge(inputs, t_out, odom, output_T_robot, out.ranges, out.intensities, status);
+  }
+  /// The same, into `ranges` and `intensities` (e.g. those of the message to publish; resized to
+  /// beamCount(), intensities emptied when no used source has any).
+  void merge(const std::vector<SourceInput>& inputs, double t_out, const OdometryBuffer* odom,
+             const Eigen::Isometry3d& output_T_robot, std::vector<float>& ranges, std::vector<float>& intensities,
+             std::vector<SourceStatus>& status);
 
   /// Beams per deskew group: the transform is computed exactly at every group border
   /// and interpolated linearly per beam in between.

@@ -15,8 +15,10 @@
 
 #include "laserscan_common/message_checks.hpp"
 #include "laserscan_common/parameter_reader.hpp"
+#include "laserscan_common/node_glue.hpp"
 #include "laserscan_common/throttle.hpp"
 #include "laserscan_common/transform_reader.hpp"
+#include "laserscan_common/transform_wait.hpp"
 #include "multi_laserscan_merger/merger_core.hpp"
 #include "multi_laserscan_merger/stamp_sync.hpp"
 
@@ -46,14 +48,19 @@ private:
   struct SourceState
   {
     sensor_msgs::LaserScan::ConstPtr scan;  ///< latest accepted scan
+    ScanView view;                          ///< of `scan`, checked once on arrival
     Eigen::Isometry3d output_T_sensor = Eigen::Isometry3d::Identity();
     /// The robot's parts as configured for this source (unposed; empty: no self filter).
     laserscan_common::SelfFilter self_filter;
     /// The same, posed in the sensor's frame for `scan` (each scan carries its own poses: with
     /// sync_window a newer scan may arrive before an older one is merged).
     laserscan_common::SelfFilter scan_self_filter;
-    sensor_msgs::LaserScan::ConstPtr pending;  ///< waiting for its transform
-    std::string pending_frame;                 ///< its frame id as tf2 wants it
+    /// The scans waiting for their transforms (one deep: a newer scan replaces a waiting one).
+    std::unique_ptr<laserscan_common::TransformWait<sensor_msgs::LaserScan>> wait;
+    /// The scan waiting for its transform; one that comes back from `wait` but is no longer
+    /// this one was given up on (replaced, superseded, cleared) and is ignored.
+    sensor_msgs::LaserScan::ConstPtr pending;
+    std::string pending_frame;  ///< its frame id as tf2 wants it
     ros::WallTime pending_since;
     std::string pending_error;
     laserscan_common::FrameIdNormaliser frame_id;  ///< reports a leading '/' once per source
@@ -61,7 +68,8 @@ private:
     /// which ROS_WARN_THROTTLE's one timer per call site in the whole manager would.
     laserscan_common::WarningThrottle warnings;
     // Diagnostics.
-    std::size_t received = 0, received_at_last_report = 0;
+    std::size_t received = 0;
+    laserscan_common::RateMeter rate;  ///< scans per second between two reports
     std::size_t timeouts = 0, transform_failures = 0, malformed = 0;
     std::size_t dropped = 0, dropped_at_last_report = 0;  ///< malformed + transform failures
     std::string last_drop;                                ///< why the last scan was dropped
@@ -81,27 +89,33 @@ private:
   void checkTimeJump();
   /// Warns (throttled per `kind` of cause) and clears every buffer.
   void clearAll(const std::string& why, const std::string& kind);
-  /// output_T_sensor at stamp; false (with the reason in error) when tf2 has none or it is not finite.
-  bool tryTransform(const std::string& frame, const ros::Time& stamp, Eigen::Isometry3d& output_T_sensor,
-                    std::string& error);
+  /// output_T_sensor at stamp; the reason when tf2 has none or it is not finite ("" when found).
+  std::string tryTransform(const std::string& frame, const ros::Time& stamp, Eigen::Isometry3d& output_T_sensor);
   /// Poses a copy of the source's self filter (if any) in the scan's frame into `posed`: at the
-  /// scan's stamp, or at its middle beam's time when the source deskews. false (with the reason)
-  /// while a shape frame's transform is not there: the scan waits for it as for its own.
-  bool poseSelfFilter(std::size_t source, const sensor_msgs::LaserScan& msg, const std::string& frame,
-                      laserscan_common::SelfFilter& posed, std::string& error);
+  /// scan's stamp, or at its middle beam's time when the source deskews. The reason ("" when
+  /// posed) while a shape frame's transform is not there: the scan waits for it as for its own.
+  std::string poseSelfFilter(std::size_t source, const sensor_msgs::LaserScan& msg, const std::string& frame,
+                             laserscan_common::SelfFilter& posed);
   /// Keeps msg with the mount it was transformed with, unless an older scan than the one kept;
   /// with publish_rate 0 publishes (now or when the scans due at its stamp are in: outputs_).
-  void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg, const Eigen::Isometry3d& output_T_sensor,
-              laserscan_common::SelfFilter self_filter);
-  /// publish_rate > 0: publishes at the newest data unless scans of the newest stamp are still
-  /// due within sync_window (then the tick waits for them, never past the window's end).
+  void accept(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg, const ScanView& view,
+              const Eigen::Isometry3d& output_T_sensor, laserscan_common::SelfFilter self_filter);
+  /// publish_rate > 0: asks outputs_ whether to publish at the newest data (a tick, a scan while
+  /// a tick waits, or the end of its window: `at_deadline`).
   void publishTick(bool at_deadline);
   void syncTimerCallback();
   void armSyncTimer(double deadline);
   /// Counts an output that waited or misses due scans, and names the late sources (throttled).
   void reportSync(const ros::Time& stamp, const StampSync::Decision& decision, bool waited);
   void drop(std::size_t source, std::string why);
-  void retryPending();
+  /// A scan back from its source's wait: its transforms came (at `received`, wall time), or `why`
+  /// they will not (null when they came).
+  void transformArrived(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg, const ros::Time& received,
+                        const char* why);
+  /// Drops a waiting scan that waited longer than kTransformWait (its transforms did not come).
+  void expirePending();
+  /// Counts and warns about the waiting scan of `source` whose transforms did not come in time.
+  void dropPending(std::size_t source, const std::string& error);
   /// t_out is the stamp of a scan or an odometry message: published bit for bit.
   void mergeAndPublish(const ros::Time& t_out);
   bool robotToOutput(Eigen::Isometry3d& out);
@@ -133,13 +147,12 @@ private:
 
   std::vector<SourceInput> inputs_;  ///< reused across merges
   std::vector<SourceStatus> status_;
-  MergedScan merged_;
-  ros::Time last_published_;  ///< zero: nothing published on this timeline yet
   /// A source's scan as it goes into the merge: the message, its mount at the scan's stamp and
   /// the robot's parts posed for it.
   struct ScanInMerge
   {
     sensor_msgs::LaserScan::ConstPtr msg;
+    ScanView view;  ///< of msg, checked once on arrival
     Eigen::Isometry3d output_T_sensor;
     laserscan_common::SelfFilter self_filter;
   };
@@ -149,19 +162,15 @@ private:
   /// sees, and never stalls while a simulated clock stands still (a bag paused or ended); a bag
   /// played faster than real time still delivers the scans of one stamp close together in wall time.
   ros::SteadyTimer sync_timer_;
-  bool tick_deferred_ = false;  ///< publish_rate > 0: a tick waits for scans of its stamp
-  double tick_deadline_ = 0.0;  ///< until then (s, steady clock)
   std::size_t outputs_published_ = 0, outputs_waited_ = 0, outputs_incomplete_ = 0;
   std::size_t incomplete_at_last_report_ = 0;
   std::string last_incomplete_;  ///< the last output published without a due scan, and whose
   ros::Time last_now_;
-  ros::WallTime last_report_;
 
   ros::Publisher pub_;
   ros::Subscriber odom_sub_;
   ros::Timer publish_timer_;
-  ros::WallTimer diagnostics_timer_;
-  std::unique_ptr<diagnostic_updater::Updater> updater_;
+  std::unique_ptr<laserscan_common::NodeDiagnostics> diagnostics_;
 };
 
 }  // namespace multi_laserscan_merger

@@ -13,11 +13,13 @@
 
 #include "laserscan_common/parameter_error.hpp"
 #include "laserscan_common/parameter_table.hpp"
+#include "laserscan_common/scan_geometry.hpp"
 
 namespace multi_laserscan_merger
 {
 
-constexpr double kPi = 3.14159265358979323846;
+using laserscan_common::kPi;
+using laserscan_common::wrapAngle;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 using laserscan_common::ParameterError;
@@ -43,6 +45,8 @@ struct OutputParams
 
   /// Number of beams by the fencepost rule: round((max - min) / increment) + 1.
   std::size_t beamCount() const;
+  /// What a bin without a return reads (+Inf, or range_max + inf_epsilon).
+  float noReturnValue() const;
   /// Throws ParameterError (names are the ROS parameter names).
   void validate() const;
 };
@@ -206,15 +210,6 @@ void visitFields(P& p, V&& visit)
           .atLeast(0.0)
           .atMost(1.0)
           .finiteOnly());
-}
-
-/// Wraps an angle to [-pi, pi).
-inline double wrapAngle(double a)
-{
-  a = std::fmod(a + kPi, 2.0 * kPi);
-  if (a < 0.0)
-    a += 2.0 * kPi;
-  return a - kPi;
 }
 
 }  // namespace multi_laserscan_merger

@@ -78,8 +78,9 @@ private:
 /// stamp is in or its window ended. A scan newer than an output still waiting is held back until
 /// that output is out: the output never holds a scan newer than its stamp, a scan due at it
 /// still completes it, and outputs keep increasing stamps (each one published once). With
-/// publish_rate > 0 (`every_scan` false) scans go straight into the merge and the timer asks
-/// complete() before it publishes. Payload is the caller's scan (the ROS message and its mount).
+/// publish_rate > 0 (`every_scan` false) scans go straight into the merge and each timer tick
+/// asks tick(). Either way this class alone decides when an output is published (handlers
+/// `wait` and `publish`). Payload is the caller's scan (the ROS message and its mount).
 template <class Payload>
 class SyncedOutputs
 {
@@ -121,16 +122,35 @@ public:
     release(now);
   }
 
-  /// publish_rate > 0: may a tick publish now? False while scans of the newest stamp are due
-  /// within the window (then `deadline()` says until when); the Decision of the last call is
-  /// lastDecision().
-  bool complete(double now)
+  /// publish_rate > 0: a tick (or, while one waits, a new scan or the end of its window:
+  /// `at_deadline`) with the newest data stamped `stamp` (ns). Publishes at it unless nothing is
+  /// in the merge or it is not newer than the last output; while scans of the newest scan's stamp
+  /// are due within the window the tick waits for them (handler `wait` once, deadline() until
+  /// when), never past the window's end.
+  void tick(std::int64_t stamp, double now, bool at_deadline)
   {
-    const std::int64_t t = newestStamp();
-    if (t == kNone)
-      return true;
-    sync_.decide(t, now, decision_);
-    return decision_.publish;
+    const std::int64_t newest = newestStamp();
+    if (newest == kNone || (last_published_ != kNone && stamp <= last_published_))
+    {
+      waiting_ = false;
+      return;
+    }
+    sync_.decide(newest, now, decision_);
+    if (!decision_.publish && !at_deadline)
+    {
+      if (!waiting_)
+      {
+        waiting_ = true;
+        waiting_stamp_ = stamp;
+        tick_deadline_ = decision_.deadline;
+        handlers_.wait(stamp, decision_);
+      }
+      return;
+    }
+    const bool waited = waiting_;
+    waiting_ = false;
+    last_published_ = stamp;
+    handlers_.publish(stamp, decision_, waited);
   }
 
   /// Forget the timeline (bag loop, clock jump): held scans, the waiting output, the last one.
@@ -144,8 +164,8 @@ public:
   }
 
   bool waiting() const { return waiting_; }
-  double deadline() const { return decision_.deadline; }
-  const StampSync::Decision& lastDecision() const { return decision_; }
+  /// Until when the waiting output (or tick) waits.
+  double deadline() const { return every_scan_ ? decision_.deadline : tick_deadline_; }
   std::int64_t newestStamp() const
   {
     std::int64_t t = kNone;
@@ -224,6 +244,7 @@ private:
   bool waiting_ = false;
   std::int64_t waiting_stamp_ = 0;
   std::int64_t last_published_ = kNone;
+  double tick_deadline_ = 0.0;  ///< publish_rate > 0: the end of the window the waiting tick opened
   StampSync::Decision decision_;
 };
 
