@@ -11,6 +11,7 @@
 
 #include "laserscan_common/diagnostics_timer.hpp"
 #include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/parameter_reader.hpp"
 #include "reactive_navigator/obstacle_points.hpp"
 
 namespace reactive_navigator
@@ -21,86 +22,22 @@ namespace
 
 using XmlRpc::XmlRpcValue;
 
-bool isNumber(const XmlRpcValue& v)
+// The navigator's structured parameters, converted by laserscan_common's one rule for numbers.
+Polygon toPolygon(XmlRpcValue& v, const std::string& name)
 {
-  return v.getType() == XmlRpcValue::TypeDouble || v.getType() == XmlRpcValue::TypeInt;
-}
-
-double toDouble(XmlRpcValue& v)
-{
-  return v.getType() == XmlRpcValue::TypeInt ? static_cast<double>(static_cast<int>(v)) : static_cast<double>(v);
-}
-
-void readNumber(const ros::NodeHandle& nh, const std::string& name, double& value)
-{
-  XmlRpcValue v;
-  if (!nh.getParam(name, v))
-    return;
-  if (!isNumber(v))
-    throw ParameterError(name, "must be a number");
-  value = toDouble(v);
-}
-
-void readInt(const ros::NodeHandle& nh, const std::string& name, int& value)
-{
-  XmlRpcValue v;
-  if (!nh.getParam(name, v))
-    return;
-  if (v.getType() != XmlRpcValue::TypeInt)
-    throw ParameterError(name, "must be an integer");
-  value = static_cast<int>(v);
-}
-
-void readBool(const ros::NodeHandle& nh, const std::string& name, bool& value)
-{
-  XmlRpcValue v;
-  if (!nh.getParam(name, v))
-    return;
-  if (v.getType() != XmlRpcValue::TypeBoolean)
-    throw ParameterError(name, "must be true or false");
-  value = static_cast<bool>(v);
-}
-
-void readString(const ros::NodeHandle& nh, const std::string& name, std::string& value)
-{
-  XmlRpcValue v;
-  if (!nh.getParam(name, v))
-    return;
-  if (v.getType() != XmlRpcValue::TypeString)
-    throw ParameterError(name, "must be a string");
-  value = static_cast<std::string>(v);
-}
-
-void readStringList(const ros::NodeHandle& nh, const std::string& name, std::vector<std::string>& value)
-{
-  XmlRpcValue v;
-  if (!nh.getParam(name, v))
-    return;
-  if (v.getType() != XmlRpcValue::TypeArray)
-    throw ParameterError(name, "must be a list of topic names");
-  value.clear();
-  for (int i = 0; i < v.size(); ++i)
-  {
-    if (v[i].getType() != XmlRpcValue::TypeString)
-      throw ParameterError(name, "must be a list of topic names");
-    value.push_back(static_cast<std::string>(v[i]));
-  }
-}
-
-Polygon toPolygon(const std::string& name, XmlRpcValue& v)
-{
-  if (v.getType() != XmlRpcValue::TypeArray)
-    throw ParameterError(name, "must be a list of [x, y] vertices (m)");
+  laserscan_common::Polygon vertices;
+  laserscan_common::fromXmlRpc(v, name, vertices);
   Polygon polygon;
-  for (int i = 0; i < v.size(); ++i)
-  {
-    XmlRpcValue& vertex = v[i];
-    if (vertex.getType() != XmlRpcValue::TypeArray || vertex.size() != 2 || !isNumber(vertex[0]) ||
-        !isNumber(vertex[1]))
-      throw ParameterError(name, "must be a list of [x, y] vertices (m)");
-    polygon.emplace_back(toDouble(vertex[0]), toDouble(vertex[1]));
-  }
+  for (const auto& vertex : vertices)
+    polygon.emplace_back(vertex[0], vertex[1]);
   return polygon;
+}
+
+double toNumber(XmlRpcValue& v, const std::string& name)
+{
+  double value = 0.0;
+  laserscan_common::fromXmlRpc(v, name, value);
+  return value;
 }
 
 double cpuSeconds()
@@ -116,13 +53,13 @@ constexpr double kGoalTransformWait = 2.0;  // wall s a goal waits for its trans
 
 }  // namespace
 
-void readParameters(const ros::NodeHandle& nh, NavigatorParameters& p, NodeParameters& n)
+void readParameters(laserscan_common::ParameterReader& reader, NavigatorParameters& p, NodeParameters& n)
 {
-  readString(nh, "mode", p.mode);
+  reader.read("mode", p.mode);
   XmlRpcValue v;
-  if (nh.getParam("footprint", v))
-    p.footprint = toPolygon("footprint", v);
-  if (nh.getParam("shape_3d", v))
+  if (reader.readRaw("footprint", v))
+    p.footprint = toPolygon(v, "footprint");
+  if (reader.readRaw("shape_3d", v))
   {
     if (v.getType() != XmlRpcValue::TypeArray)
       throw ParameterError("shape_3d", "must be a list of {height: m, polygon: [[x, y], ...]}");
@@ -131,44 +68,46 @@ void readParameters(const ros::NodeHandle& nh, NavigatorParameters& p, NodeParam
     {
       const std::string name = "shape_3d[" + std::to_string(i) + "]";
       XmlRpcValue& level = v[i];
-      if (level.getType() != XmlRpcValue::TypeStruct || !level.hasMember("height") || !level.hasMember("polygon") ||
-          !isNumber(level["height"]))
+      if (level.getType() != XmlRpcValue::TypeStruct || !level.hasMember("height") || !level.hasMember("polygon"))
         throw ParameterError(name, "must be {height: m, polygon: [[x, y], ...]}");
-      p.shape_3d.push_back(ShapeLevel{ toDouble(level["height"]), toPolygon(name + ".polygon", level["polygon"]) });
+      p.shape_3d.push_back(
+        ShapeLevel{ toNumber(level["height"], name + ".height"), toPolygon(level["polygon"], name + ".polygon") });
     }
   }
-  readNumber(nh, "max_linear_speed", p.max_linear_speed);
-  readNumber(nh, "max_angular_speed", p.max_angular_speed);
-  readNumber(nh, "linear_acceleration", p.linear_acceleration);
-  readNumber(nh, "goal_tolerance", p.goal_tolerance);
-  readNumber(nh, "lookahead", p.lookahead);
-  readInt(nh, "path_count", p.path_count);
-  readNumber(nh, "blocked_timeout", p.blocked_timeout);
-  readNumber(nh, "self_padding", p.self_padding);
-  readNumber(nh, "obstacle_memory", p.obstacle_memory);
+  reader.read("max_linear_speed", p.max_linear_speed);
+  reader.read("max_angular_speed", p.max_angular_speed);
+  reader.read("linear_acceleration", p.linear_acceleration);
+  reader.read("goal_tolerance", p.goal_tolerance);
+  reader.read("lookahead", p.lookahead);
+  reader.read("path_count", p.path_count);
+  reader.read("blocked_timeout", p.blocked_timeout);
+  reader.read("self_padding", p.self_padding);
+  reader.read("obstacle_memory", p.obstacle_memory);
   p.validate();
 
-  readStringList(nh, "scan_topics", n.scan_topics);
-  readStringList(nh, "cloud_topics", n.cloud_topics);
-  readString(nh, "odom_frame", n.odom_frame);
-  readString(nh, "robot_frame", n.robot_frame);
-  if (nh.getParam("height_band", v))
+  reader.read("scan_topics", n.scan_topics);
+  reader.read("cloud_topics", n.cloud_topics);
+  reader.read("odom_frame", n.odom_frame);
+  reader.read("robot_frame", n.robot_frame);
+  if (reader.readRaw("height_band", v))
   {
-    if (v.getType() != XmlRpcValue::TypeArray || v.size() != 2 || !isNumber(v[0]) || !isNumber(v[1]))
+    if (v.getType() != XmlRpcValue::TypeArray || v.size() != 2)
       throw ParameterError("height_band", "must be [min, max] (m, robot frame)");
-    n.height_band_min = toDouble(v[0]);
-    n.height_band_max = toDouble(v[1]);
+    n.height_band_min = toNumber(v[0], "height_band[0]");
+    n.height_band_max = toNumber(v[1], "height_band[1]");
   }
-  readNumber(nh, "control_rate", n.control_rate);
-  readBool(nh, "lockstep", n.lockstep);
-  readNumber(nh, "lockstep_timeout", n.lockstep_timeout);
+  reader.read("control_rate", n.control_rate);
+  reader.read("lockstep", n.lockstep);
+  reader.read("lockstep_timeout", n.lockstep_timeout);
   n.validate();
+  reader.warnUnknown();
 }
 
 ReactiveNavigatorRos::ReactiveNavigatorRos(ros::NodeHandle nh, ros::NodeHandle private_nh)
   : nh_(nh), private_nh_(private_nh), diagnostics_(nh, private_nh)
 {
-  readParameters(private_nh_, navigator_parameters_, parameters_);
+  laserscan_common::ParameterReader reader(private_nh_);
+  readParameters(reader, navigator_parameters_, parameters_);
   core_ = std::make_unique<NavigatorCore>(navigator_parameters_);
   parameters_.odom_frame = laserscan_common::tf2FrameId(parameters_.odom_frame);
   parameters_.robot_frame = laserscan_common::tf2FrameId(parameters_.robot_frame);

@@ -16,6 +16,7 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2/buffer_core.h>
 
+#include "laserscan_common/parameter_reader.hpp"
 #include "laserscan_common/throttle.hpp"
 #include "laserscan_common/transform_reader.hpp"
 #include "reactive_navigator/navigator_core.hpp"
@@ -23,9 +24,9 @@
 namespace reactive_navigator
 {
 
-/// Reads the parameters from the private node handle, strictly (a wrong type is an error);
-/// throws ParameterError naming the parameter.
-void readParameters(const ros::NodeHandle& private_nh, NavigatorParameters& navigator, NodeParameters& node);
+/// Reads the private parameters through laserscan_common's strict reader (one rule for numbers;
+/// unknown ones named once) and validates; throws ParameterError naming the parameter.
+void readParameters(laserscan_common::ParameterReader& reader, NavigatorParameters& navigator, NodeParameters& node);
 
 class ReactiveNavigatorRos
 {
