@@ -20,7 +20,10 @@ NODES = {  # kind: (package, executable, output topic, parameters the node needs
     "range": ("depth_filter_scan_converter", "range_scan_converter_node", "scan", {}),
     "merger": ("multi_laserscan_merger", "multi_laserscan_merger_node", "merged_scan",
                {"sources": SOURCES, "odom_topic": ""}),
+    "navigator": ("reactive_navigator", "reactive_navigator_node", "cmd_vel", {"scan_topics": ["scan"]}),
 }
+KNOWN = {"converter": {"self_filter": {"padding": 0.05}}, "range": {"queue_size": 5},
+         "merger": {"self_filter": {"padding": 0.05}}, "navigator": {"height_band": [0.05, 0.9]}}
 
 
 @pytest.fixture(scope="module")
@@ -56,6 +59,7 @@ def run(master, kind, name, params, timeout=30.0):
     ("converter", "min_hieght", "min_height", {"row_stride": 2.0}),
     ("range", "arc_widht", "arc_width", {"min_consecutive_readings": 3.0}),
     ("merger", "publish_rte", "publish_rate", {"odom_queue_size": 100.0}),
+    ("navigator", "goal_tolerence", "goal_tolerance", {"path_count": 4.0}),
 ])
 def test_unknown_parameter_is_named_once_with_the_closest_known_name(master, kind, typo, meant, good):
     name = "%s_typo" % kind
@@ -68,14 +72,14 @@ def test_unknown_parameter_is_named_once_with_the_closest_known_name(master, kin
 
 @pytest.mark.parametrize("kind", sorted(NODES))
 def test_known_parameters_give_no_warning(master, kind):
-    params = {"self_filter": {"padding": 0.05}} if kind != "range" else {"queue_size": 5}
-    status, out = run(master, kind, "%s_clean" % kind, params)
+    status, out = run(master, kind, "%s_clean" % kind, KNOWN[kind])
     assert status is None and "unknown parameter" not in out, out
 
 
 @pytest.mark.parametrize("kind,params,parameter,reason", [
     ("converter", {"row_stride": 2.5}, "row_stride", "must be a whole number"),
     ("merger", {"odom_queue_size": 100.5}, "odom_queue_size", "must be a whole number"),
+    ("navigator", {"path_count": 2.5}, "path_count", "must be a whole number"),
     ("merger", {"sources": [dict(SOURCES[0], timout=1.0)]}, "sources[0].timout",
      "unknown key (did you mean 'timeout'?)"),
 ])
