@@ -24,7 +24,7 @@ REPO = os.path.dirname(HERE)
 from laserscan_toolbox.ros.rosrun import Roscore, stop_process
 
 PACKAGES = ["laserscan_common", "depth_filter_scan_converter", "multi_laserscan_merger",
-            "scan_evaluation_tools"]
+            "scan_evaluation_tools", "reactive_navigator"]
 # The tools a user runs on a robot (scan_evaluation_tools/CMakeLists.txt installs them).
 TOOLS = {"check_config", "evaluate_bag", "rviz_config"}
 # Each node with private parameters it must refuse, and the parameter its FATAL message names.
@@ -36,6 +36,7 @@ NODES = [
     ("depth_filter_scan_converter", "range_scan_converter_node",
      ["_min_consecutive_readings:=0"], "min_consecutive_readings"),
     ("multi_laserscan_merger", "multi_laserscan_merger_node", [], "sources"),  # no sources given
+    ("reactive_navigator", "reactive_navigator_node", ["_scan_topics:=[scan]", "_mode:=4d"], "mode"),
 ]
 # Each nodelet with the installed YAML (package, file in its config/) it starts on.
 NODELETS = [
@@ -47,12 +48,14 @@ NODELETS = [
      "depth_filter_scan_converter", "range_scan_converter.yaml"),
     ("multi_laserscan_merger/MultiLaserScanMergerNodelet",
      "multi_laserscan_merger", "multi_laserscan_merger.yaml"),
+    ("reactive_navigator/ReactiveNavigatorNodelet", "reactive_navigator", "reactive_navigator.yaml"),
 ]
 # Every launch file the install space holds; the last test starts those in STARTED, the others
 # are parsed (roslaunch --nodes), with their configs and checks, since they need a robot or rviz.
 LAUNCH_FILES = [("depth_filter_scan_converter", "depth_filter_scan_converter.launch"),
                 ("depth_filter_scan_converter", "range_scan_converter.launch"),
                 ("multi_laserscan_merger", "multi_laserscan_merger.launch"),
+                ("reactive_navigator", "reactive_navigator.launch"),
                 ("scan_evaluation_tools", "check_config.launch"),
                 ("scan_evaluation_tools", "dual_lidar_demo.launch"),
                 ("scan_evaluation_tools", "pipeline.launch"),
