@@ -9,7 +9,6 @@
 #include <std_msgs/String.h>
 #include <tf2_eigen/tf2_eigen.h>
 
-#include "laserscan_common/diagnostics_timer.hpp"
 #include "laserscan_common/message_checks.hpp"
 #include "laserscan_common/parameter_reader.hpp"
 #include "reactive_navigator/obstacle_points.hpp"
@@ -146,9 +145,8 @@ ReactiveNavigatorRos::ReactiveNavigatorRos(ros::NodeHandle nh, ros::NodeHandle p
     step_timer_ =
       nh_.createTimer(ros::Duration(1.0 / parameters_.control_rate), &ReactiveNavigatorRos::timerStep, this);
 
-  diagnostics_.setHardwareID(ros::this_node::getName());
-  diagnostics_.add("navigator", this, &ReactiveNavigatorRos::diagnose);
-  diagnostics_timer_ = laserscan_common::diagnosticsTimer(nh_, diagnostics_, ros::this_node::getName());
+  diagnostics_.add("navigator", [this](diagnostic_updater::DiagnosticStatusWrapper& status) { diagnose(status); });
+  diagnostics_.start();
 
   publishState();
 }

@@ -16,6 +16,7 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2/buffer_core.h>
 
+#include "laserscan_common/node_glue.hpp"
 #include "laserscan_common/parameter_reader.hpp"
 #include "laserscan_common/throttle.hpp"
 #include "laserscan_common/transform_reader.hpp"
@@ -71,8 +72,8 @@ private:
   std::vector<ros::Subscriber> obstacle_subs_;
   ros::Publisher cmd_pub_, state_pub_, step_pub_;
   ros::Timer step_timer_;
-  ros::WallTimer watchdog_timer_, retry_timer_, diagnostics_timer_;
-  diagnostic_updater::Updater diagnostics_;
+  ros::WallTimer watchdog_timer_, retry_timer_;
+  laserscan_common::NodeDiagnostics diagnostics_;
   laserscan_common::WarningThrottle throttle_;
 
   std::mutex mutex_;  // the callbacks may run on several threads (a nodelet manager)
