@@ -6,10 +6,10 @@
 
 #include <tuple>
 
-#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
 #include "laserscan_common/fast_math.hpp"
 #include "laserscan_common/parameter_table_python.hpp"
-#include "depth_filter_scan_converter/projector.hpp"
+#include "laserscan_common/self_filter.hpp"
 
 namespace py = pybind11;
 namespace dfsc = depth_filter_scan_converter;
@@ -98,6 +98,10 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
   using P = dfsc::Parameters;
   laserscan_common::python::bindFields(params);
   m.def("parameter_table", &laserscan_common::python::table<P>, "The field table of Parameters (the export)");
+  // laserscan_common has no Python module of its own: the block the converters and the merger
+  // share is exported from here.
+  m.def("self_filter_parameter_table", &laserscan_common::python::table<laserscan_common::SelfFilterParams>,
+        "The field table of the self_filter block (the export)");
   params.def("validate", &P::validate, "Raises ParameterError (a ValueError) naming the bad parameter")
     .def("beam_count", [](const P& p) { return p.scan.beamCount(); })
     .def("no_return_value", [](const P& p) { return p.scan.noReturnValue(); })

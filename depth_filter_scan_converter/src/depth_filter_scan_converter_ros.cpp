@@ -12,7 +12,7 @@
 #include <stdexcept>
 #include <type_traits>
 
-#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
 #include "laserscan_common/self_filter_parameters.hpp"
 #include "laserscan_common/node_log.hpp"
 

@@ -35,38 +35,6 @@ float clampToFloat(double v)
 }
 }  // namespace
 
-double readField(const std::uint8_t* p, FieldType type)
-{
-  switch (type)
-  {
-    case FieldType::Int8:
-      return load<std::int8_t>(p);
-    case FieldType::UInt8:
-      return load<std::uint8_t>(p);
-    case FieldType::Int16:
-      return load<std::int16_t>(p);
-    case FieldType::UInt16:
-      return load<std::uint16_t>(p);
-    case FieldType::Int32:
-      return load<std::int32_t>(p);
-    case FieldType::UInt32:
-      return load<std::uint32_t>(p);
-    case FieldType::Float32:
-    {
-      float v;
-      std::memcpy(&v, p, sizeof v);
-      return v;
-    }
-    case FieldType::Float64:
-    {
-      double v;
-      std::memcpy(&v, p, sizeof v);
-      return v;
-    }
-  }
-  return std::numeric_limits<double>::quiet_NaN();
-}
-
 /// Where pass 3 appends the beam and squared range of every obstacle (the range noise model's
 /// closest-cluster pass needs them); bins == nullptr: nothing is recorded.
 struct Projector::Record

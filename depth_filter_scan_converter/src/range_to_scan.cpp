@@ -12,14 +12,6 @@ namespace depth_filter_scan_converter
 namespace
 {
 using laserscan_common::kTwoPi;
-constexpr std::size_t kMaxBeams = 100000;
-
-void require(bool ok, const char* parameter, const char* reason)
-{
-  if (!ok)
-    throw ParameterError(parameter, reason);
-}
-
 std::string describe(const char* what, double value)
 {
   std::ostringstream s;
@@ -30,15 +22,9 @@ std::string describe(const char* what, double value)
 
 void RangeScanParameters::validate() const
 {
-  // Up to 4x the cone: wider arcs mark mostly free space (use arc_width for a fixed, wide arc).
-  require(arc_width_scale > 0.0 && arc_width_scale <= 4.0, "arc_width_scale", "must be within (0, 4]");
-  require(std::isfinite(arc_width) && arc_width >= 0.0 && arc_width <= kTwoPi + 1e-6, "arc_width",
-          "must be within [0, 2*pi] rad (0: use the message's field_of_view)");
-  require(std::isfinite(angle_increment) && angle_increment > 0.0, "angle_increment", "must be a finite value > 0");
-  require(kTwoPi / angle_increment < static_cast<double>(kMaxBeams), "angle_increment",
-          "gives more than 100000 beams over one turn");
-  require(min_consecutive_readings >= 1, "min_consecutive_readings", "must be >= 1");
-  require(queue_size >= 1, "queue_size", "must be >= 1");
+  // Every rule is one field's limits (the table's): up to 4x the cone (wider arcs mark mostly
+  // free space: use arc_width for a fixed, wide arc); at most 100000 beams over one turn.
+  laserscan_common::checkLimits(*this);
 }
 
 const char* readingKindName(ReadingKind kind)

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
 
 namespace depth_filter_scan_converter
 {

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
 #include "depth_filter_scan_converter/converter_glue.hpp"
 #include "depth_filter_scan_converter/copy_once_subscription.hpp"
 

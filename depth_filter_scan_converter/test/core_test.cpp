@@ -11,9 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "depth_filter_scan_converter/cloud_view.hpp"
-#include "depth_filter_scan_converter/parameters.hpp"
 #include "depth_filter_scan_converter/projector.hpp"
+#include "depth_filter_scan_converter/parameters.hpp"
 #include "cloud_fixtures.hpp"
 #include "pcl_cloud.hpp"
 

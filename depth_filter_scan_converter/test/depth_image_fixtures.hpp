@@ -16,7 +16,7 @@
 #include <string>
 
 #include "cloud_fixtures.hpp"
-#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
 #include "depth_filter_scan_converter/depth_image_view.hpp"
 
 namespace depth_filter_scan_converter

@@ -8,7 +8,6 @@
 #include <iostream>
 #include <stdexcept>
 
-#include "depth_filter_scan_converter/cloud_view.hpp"
 #include "depth_filter_scan_converter/projector.hpp"
 #include "fuzz_values.h"
 

@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
 
 namespace depth_filter_scan_converter
 {

@@ -89,4 +89,13 @@ void SelfFilter::setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T
   }
 }
 
+void SelfFilterParams::validate() const
+{
+  checkLimits(*this, "self_filter/");
+  if (!links.empty() && !use_robot_description)
+    throw ParameterError("self_filter/links", "needs use_robot_description: true (the links are the description's)");
+  for (std::size_t i = 0; i < shapes.size(); ++i)
+    shapes[i].validate("self_filter/shapes[" + std::to_string(i) + "]");
+}
+
 }  // namespace laserscan_common

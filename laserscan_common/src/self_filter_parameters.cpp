@@ -112,16 +112,6 @@ std::string resolveMesh(const std::string& uri)
 }
 }  // namespace
 
-void SelfFilterParams::validate() const
-{
-  if (!std::isfinite(padding) || padding < 0.0)
-    throw ParameterError("self_filter/padding", "must be finite and >= 0 (m)");
-  if (!links.empty() && !use_robot_description)
-    throw ParameterError("self_filter/links", "needs use_robot_description: true (the links are the description's)");
-  for (std::size_t i = 0; i < shapes.size(); ++i)
-    shapes[i].validate("self_filter/shapes[" + std::to_string(i) + "]");
-}
-
 SelfFilterParams readSelfFilterParams(ParameterReader& reader, const std::string& key)
 {
   SelfFilterParams p;
@@ -130,21 +120,23 @@ SelfFilterParams readSelfFilterParams(ParameterReader& reader, const std::string
     return p;
   if (block.getType() != XmlRpcValue::TypeStruct)
     throw ParameterError(key, "must be a dictionary (use_robot_description, links, padding, shapes)");
-  onlyKeys(block, key, { "use_robot_description", "links", "padding", "shapes" });
-  if (block.hasMember("use_robot_description"))
-    fromXmlRpc(block["use_robot_description"], key + "/use_robot_description", p.use_robot_description);
-  if (block.hasMember("padding"))
-    fromXmlRpc(block["padding"], key + "/padding", p.padding);
-  if (block.hasMember("links"))
-    fromXmlRpc(block["links"], key + "/links", p.links);
-  if (block.hasMember("shapes"))
-  {
-    XmlRpcValue& shapes = block["shapes"];
-    if (shapes.getType() != XmlRpcValue::TypeArray)
-      throw ParameterError(key + "/shapes", "must be a list of shapes");
-    for (int i = 0; i < shapes.size(); ++i)
-      p.shapes.push_back(readShape(shapes[i], key + "/shapes[" + std::to_string(i) + "]", p.padding));
-  }
+  const std::string prefix = key + "/";
+  refuseUnknownKeys(block, prefix, p);
+  // In the table's order: padding before shapes, whose default padding it is.
+  visitFields(p, [&](auto& field, const ParamInfo& info) {
+    if (!block.hasMember(info.name))
+      return;
+    if constexpr (std::is_same_v<std::decay_t<decltype(field)>, std::vector<RobotShape>>)
+    {
+      XmlRpcValue& shapes = block[info.name];
+      if (shapes.getType() != XmlRpcValue::TypeArray)
+        throw ParameterError(prefix + info.name, "must be a list of shapes");
+      for (int i = 0; i < shapes.size(); ++i)
+        field.push_back(readShape(shapes[i], prefix + info.name + "[" + std::to_string(i) + "]", p.padding));
+    }
+    else
+      fromXmlRpc(block[info.name], prefix + info.name, field);
+  });
   p.validate();
   return p;
 }

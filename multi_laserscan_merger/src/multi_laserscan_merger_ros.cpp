@@ -53,7 +53,7 @@ MergerParams loadParams(laserscan_common::ParameterReader& reader)
     if (list[i].getType() != XmlRpc::XmlRpcValue::TypeStruct)
       throw ParameterError(prefix, "must be a dictionary {name, topic, timeout, angle_min, ...}");
     p.sources.emplace_back();
-    laserscan_common::readDictionary(list[i], prefix, p.sources.back());
+    laserscan_common::readDictionary(list[i], prefix + ".", p.sources.back());
   }
   p.validate();
   return p;

@@ -25,7 +25,7 @@ class Key:
     """One parameter: type ('float', 'int', 'bool', 'str'), default, unit and limits."""
 
     def __init__(self, kind, default, unit="", lo=None, hi=None, lo_open=False,
-                 angle=None, nonempty=False, doc="", finite=False):
+                 angle=None, nonempty=False, doc="", finite=False, frame_id=False):
         self.kind = kind
         self.default = default
         self.unit = unit
@@ -36,11 +36,13 @@ class Key:
         self.nonempty = nonempty
         self.doc = doc
         self.finite = finite  # +-inf is not a value either
+        self.frame_id = frame_id  # a tf2 frame id: no leading '/'
 
 
 INF = float("inf")
 # The C++ tables' types as the checker names them.
-_KINDS = {"double": "float", "int": "int", "bool": "bool", "string": "str", "polygon": "polygon"}
+_KINDS = {"double": "float", "int": "int", "bool": "bool", "string": "str", "polygon": "polygon",
+          "string list": "str_list", "shape list": "shape_list"}
 
 
 def _key(field):
@@ -49,7 +51,7 @@ def _key(field):
                lo=None if field["lo"] == -INF else field["lo"],
                hi=None if field["hi"] == INF else field["hi"], lo_open=field["lo_open"],
                angle=field["angle"] or None, nonempty=field["nonempty"], doc=field["meaning"],
-               finite=field["finite"])
+               finite=field["finite"], frame_id=field["frame_id"])
 
 
 _TABLES = parameter_tables.load()
@@ -167,62 +169,77 @@ def _type_name(v):
             dict: "mapping"}.get(type(v), type(v).__name__)
 
 
+def limit_text(v):
+    """A limit as the reasons write it: %g, and pi or 2 pi for those (as laserscan_common's limitText)."""
+    for multiple, text in ((1.0, "pi"), (2.0, "2 pi")):
+        if abs(abs(v) - multiple * math.pi) <= 2e-6:
+            return ("-" if v < 0 else "") + text
+    return "%g" % v
+
+
+def limit_fault(key, v):
+    """Why the number v breaks the key's limits ("" when it does not): the nodes' own words
+    (laserscan_common's limitFault in parameter_table.hpp; test_config_check_agrees_with_nodes.py
+    compares the two)."""
+    unit = (" " + key.unit) if key.unit else ""
+    got = ", got " + limit_text(v)
+    if math.isnan(v):
+        return "must not be NaN"
+    if (key.finite or key.angle) and not math.isfinite(v):
+        return "must be finite" + got
+    if key.angle:
+        if abs(v) <= key.angle + PI_TOL:
+            return ""
+        return "must be within [%s, %s]%s%s" % (limit_text(-key.angle), limit_text(key.angle), unit, got)
+    above_lo = key.lo is None or (v > key.lo if key.lo_open else v >= key.lo)
+    if above_lo and (key.hi is None or v <= key.hi):
+        return ""
+    if key.lo is not None and key.hi is not None:
+        return "must be within %s%s, %s]%s%s" % ("(" if key.lo_open else "[", limit_text(key.lo),
+                                                 limit_text(key.hi), unit, got)
+    if key.lo is not None:
+        return "must be %s %s%s%s" % (">" if key.lo_open else ">=", limit_text(key.lo), unit, got)
+    return "must be <= %s%s%s" % (limit_text(key.hi), unit, got)
+
+
 def check_value(path, key, value):
     """Problems of one value against its Key; returns a list of strings."""
     if key.kind == "float":
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             return ["%s: expected a number in %s, got %s %r" % (path, key.unit or "units",
                                                               _type_name(value), value)]
-        v = float(value)
-        if math.isnan(v):
-            return ["%s: NaN is not a value" % path]
-        if key.finite and not math.isfinite(v):
-            return ["%s: must be finite, got %g" % (path, v)]
-        if key.angle is not None:
-            if not math.isfinite(v):
-                return ["%s: angle must be finite, got %g" % (path, v)]
-            if not -key.angle - PI_TOL <= v <= key.angle + PI_TOL:
-                limit = "pi" if key.angle == math.pi else "2 pi"
-                return ["%s: angle %g rad is outside [-%s, %s]" % (path, v, limit, limit)]
     elif key.kind == "int":
         # The nodes' one rule for numbers: 2.0 is the whole number 2, 2.5 is not.
         whole_float = isinstance(value, float) and value.is_integer()
         if isinstance(value, bool) or not (isinstance(value, int) or whole_float):
             return ["%s: expected a whole number, got %s %r" % (path, _type_name(value), value)]
-        v = value
     elif key.kind == "bool":
         if not isinstance(value, bool):
             return ["%s: expected true or false, got %s %r" % (path, _type_name(value), value)]
         return []
     elif key.kind == "polygon":
-        return _check_polygon(path, value)
+        return _check_polygon(path, value, key.nonempty)
     elif key.kind == "self_filter":
         return _check_self_filter(path, value)
+    elif key.kind == "str_list":
+        if not (isinstance(value, list) and all(isinstance(x, str) for x in value)):
+            return ["%s: must be a list of strings" % path]
+        return []
     else:
         if not isinstance(value, str):
             return ["%s: expected a string, got %s %r" % (path, _type_name(value), value)]
-        if key.nonempty and not value.strip():
+        if key.nonempty and not value:
             return ["%s: must not be empty" % path]
+        if key.frame_id and value.startswith("/"):
+            return ["%s: must not start with '/' (tf2 frame ids have none)" % path]
         return []
-    unit = (" " + key.unit) if key.unit else ""
-    if key.lo is not None:
-        if key.lo_open and not v > key.lo:
-            return ["%s: must be > %g%s, got %g" % (path, key.lo, unit, v)]
-        if not key.lo_open and not v >= key.lo:
-            return ["%s: must be >= %g%s, got %g" % (path, key.lo, unit, v)]
-    if key.hi is not None and not v <= key.hi:
-        return ["%s: must be <= %g%s, got %g" % (path, key.hi, unit, v)]
-    return []
+    fault = limit_fault(key, float(value))
+    return ["%s: %s" % (path, fault)] if fault else []
 
 
-# The self filter block (laserscan_common's SelfFilterParams, the same for converters and merger).
-SELF_FILTER = {
-    "use_robot_description": Key("bool", False, doc="shapes from the URDF's collision elements"),
-    "links": Key("str_list", [], doc="the description's links to take; empty: all with a collision"),
-    "padding": Key("float", 0.02, "m", lo=0.0, finite=True, doc="margin around every shape"),
-    "shapes": Key("shape_list", [], doc="further shapes: {name, frame, type, size | radius [+ length], "
-                                        "origin, padding}"),
-}
+# The self filter block (laserscan_common's SelfFilterParams, the same for converters and merger);
+# a shape's own keys (a dictionary whose required keys depend on its type) are checked below.
+SELF_FILTER = {f["name"]: _key(f) for f in _TABLES["self_filter"]}
 SHAPE_SIZES = {"box": {"size"}, "cylinder": {"radius", "length"}, "sphere": {"radius"}}
 SHAPE_KEYS = {"name", "frame", "type", "size", "radius", "length", "origin", "padding"}
 
@@ -271,10 +288,7 @@ def _check_self_filter(path, value):
     for k, v in value.items():
         key = SELF_FILTER.get(k)
         if key is None:
-            problems.append("%s: unknown key" % _join(path, k))
-        elif key.kind == "str_list":
-            if not (isinstance(v, list) and all(isinstance(x, str) for x in v)):
-                problems.append("%s: must be a list of link names" % _join(path, k))
+            problems.append(_unknown(_join(path, k), k, SELF_FILTER, "key"))
         elif key.kind == "shape_list":
             if not isinstance(v, list):
                 problems.append("%s: must be a list of shapes" % _join(path, k))
@@ -289,19 +303,31 @@ def _check_self_filter(path, value):
     return problems
 
 
-def _check_polygon(path, value):
-    """A list of [x, y] points: none (no polygon) or at least 3, every coordinate finite."""
+def _unknown(path, name, known, what="parameter"):
+    """'<path>: unknown <what>', with the closest known name (as the nodes write it)."""
+    close = difflib.get_close_matches(str(name), list(known), n=1)
+    return "%s: unknown %s%s" % (path, what, " (did you mean '%s'?)" % close[0] if close else "")
+
+
+def _check_polygon(path, value, required=False):
+    """A list of [x, y] points, every coordinate finite: at least 3, or none (no polygon) unless
+    it is required (laserscan_common's limitFault of a polygon)."""
     if not isinstance(value, list):
         return ["%s: expected a list of [x, y] points, got %s %r" % (path, _type_name(value), value)]
     for i, p in enumerate(value):
-        if not (isinstance(p, list) and len(p) == 2 and all(_num(c) for c in p)):
+        if not (isinstance(p, list) and len(p) == 2 and all(_is_number(c) for c in p)):
             return ["%s: point %d is not a pair of numbers [x, y]: %r" % (path, i, p)]
+    for i, p in enumerate(value):
         if not all(math.isfinite(c) for c in p):
-            return ["%s: point %d is not finite: %r" % (path, i, p)]
-    if 0 < len(value) < 3:
-        return ["%s: needs at least 3 [x, y] points (or none: no footprint filter), got %d"
-                % (path, len(value))]
+            return ["%s: point %d is not finite" % (path, i)]
+    if len(value) < 3 and (required or value):
+        return ["%s: needs %s 3 [x, y] points, got %d" % (path, "at least" if required else "none or at least",
+                                                          len(value))]
     return []
+
+
+def _is_number(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
 def _join(prefix, key):
@@ -312,9 +338,7 @@ def _check_block(params, schema, pairs, prefix):
     problems = []
     for k in params:
         if k not in schema:
-            close = difflib.get_close_matches(str(k), list(schema), n=1)
-            hint = " (did you mean '%s'?)" % close[0] if close else ""
-            problems.append("%s: unknown parameter%s" % (_join(prefix, k), hint))
+            problems.append(_unknown(_join(prefix, k), k, schema))
     for k, key in schema.items():
         if key is not None and k in params:
             problems += check_value(_join(prefix, k), key, params[k])
@@ -341,25 +365,14 @@ def _check_one_turn(params, schema, prefix):
     return []
 
 
-def _check_frame_id(params, schema, key, prefix):
-    """Both nodes: tf2 refuses frame ids with a leading '/' (tf1 style)."""
-    frame = params.get(key, schema[key].default)
-    if isinstance(frame, str) and frame.startswith("/"):
-        return ["%s: must not start with '/' (tf2 frame ids have none)" % _join(prefix, key)]
-    return []
-
-
 def check_converter(params, prefix=""):
-    return (_check_block(params, CONVERTER, CONVERTER_PAIRS, prefix)
-            + _check_one_turn(params, CONVERTER, prefix)
-            + _check_frame_id(params, CONVERTER, "reference_frame", prefix))
+    return _check_block(params, CONVERTER, CONVERTER_PAIRS, prefix) + _check_one_turn(params, CONVERTER, prefix)
 
 
 def _check_merger_output(params, prefix):
     """The merger's cross-field rules beyond min < max (same as OutputParams::validate)."""
     problems = []
     get = lambda k: params.get(k, MERGER[k].default)  # noqa: E731
-    problems += _check_frame_id(params, MERGER, "output_frame", prefix)
     if get("finite_only") is True:
         if get("use_inf") is True:
             problems.append("%s: needs use_inf: false (no return is then range_max + inf_epsilon)"
@@ -369,7 +382,8 @@ def _check_merger_output(params, prefix):
                             "written as 0, below range_min)" % _join(prefix, "range_min"))
     rate = get("publish_rate")
     if _num(rate) and 0.0 < float(rate) < 1e-6:
-        problems.append("%s: must be 0 or at least 1e-6 Hz" % _join(prefix, "publish_rate"))
+        problems.append("%s: must be 0 or at least 1e-6 Hz (a period must fit a ros::Duration)"
+                        % _join(prefix, "publish_rate"))
     window = get("sync_window")
     if _num(rate) and _num(window) and float(rate) > 0.0 and float(window) * float(rate) >= 1.0:
         problems.append("%s: must be shorter than the publish period 1 / publish_rate" % _join(prefix, "sync_window"))

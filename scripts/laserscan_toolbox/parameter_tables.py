@@ -16,16 +16,19 @@ import re
 JSON_PATH = os.path.join(os.path.dirname(os.path.abspath(__file__)), "parameter_tables.json")
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-# Which README table shows which struct: (README, the line the table follows, table kind). The
-# first line of that text after the anchor that starts with "|" begins the table.
+# Which README table shows which struct: (README, the line the table follows, table kind, the
+# prefix its names are shown with). The first line of that text after the anchor that starts
+# with "|" begins the table.
 README_TABLES = [
-    ("depth_filter_scan_converter/README.md", "## Depth converters", "### Parameters", "converter"),
-    ("depth_filter_scan_converter/README.md", "## range_scan_converter", "### Parameters", "range"),
-    ("multi_laserscan_merger/README.md", "", "### Parameters", "merger"),
-    ("multi_laserscan_merger/README.md", "", "Each entry of `sources`:", "source"),
+    ("depth_filter_scan_converter/README.md", "## Depth converters", "### Parameters", "converter", ""),
+    ("depth_filter_scan_converter/README.md", "## range_scan_converter", "### Parameters", "range", ""),
+    ("multi_laserscan_merger/README.md", "", "### Parameters", "merger", ""),
+    ("multi_laserscan_merger/README.md", "", "Each entry of `sources`:", "source", ""),
+    ("laserscan_common/README.md", "## Self filter", "| parameter | type | unit | default | meaning |",
+     "self_filter", "self_filter/"),
 ]
 README_TYPES = {"double": "double", "int": "int", "bool": "bool", "string": "string",
-                "polygon": "list of `[x, y]`"}
+                "polygon": "list of `[x, y]`", "string list": "list of strings", "shape list": "list of dicts"}
 
 
 def export():
@@ -34,7 +37,8 @@ def export():
     import depth_filter_scan_converter_range_core as range_core
     import multi_laserscan_merger_core as merger_core
     tables = {"converter": converter_core.parameter_table(), "range": range_core.parameter_table(),
-              "merger": merger_core.parameter_table(), "source": merger_core.source_parameter_table()}
+              "merger": merger_core.parameter_table(), "source": merger_core.source_parameter_table(),
+              "self_filter": converter_core.self_filter_parameter_table()}
     return {kind: [dict(field) for field in fields] for kind, fields in tables.items()}
 
 
@@ -60,8 +64,8 @@ def default_text(field):
     return "`%r`" % (v,)
 
 
-def readme_row(field):
-    cells = ["`%s`" % field["name"], README_TYPES[field["type"]], field["unit"], default_text(field),
+def readme_row(field, prefix=""):
+    cells = ["`%s%s`" % (prefix, field["name"]), README_TYPES[field["type"]], field["unit"], default_text(field),
              field["meaning"]]
     return "|" + "|".join(" %s " % c if c else " " for c in cells) + "|"
 
@@ -75,16 +79,17 @@ def _row_names(line):
 def render_readme(text, kind_rows):
     """`text` with each table of README_TABLES rewritten: the header, one row per field in table
     order, then the rows of parameters read outside the tables (self_filter, sources) as they
-    were. kind_rows: {kind: [fields]}, for the tables this README holds."""
+    were. kind_rows: {(section, anchor, kind, prefix): [fields]}, for the tables this README holds."""
     lines = text.split("\n")
-    for section, anchor, kind in kind_rows:
+    for section, anchor, kind, prefix in kind_rows:
         start = lines.index(section) if section else 0
         at = next(i for i in range(start, len(lines)) if lines[i] == anchor)
         top = next(i for i in range(at, len(lines)) if lines[i].startswith("|"))
         end = next(i for i in range(top, len(lines)) if not lines[i].startswith("|"))
-        names = {f["name"] for f in kind_rows[(section, anchor, kind)]}
+        fields = kind_rows[(section, anchor, kind, prefix)]
+        names = {prefix + f["name"] for f in fields}
         others = [line for line in lines[top + 2:end] if not set(_row_names(line)) & names]
-        rows = [readme_row(f) for f in kind_rows[(section, anchor, kind)]]
+        rows = [readme_row(f, prefix) for f in fields]
         lines[top + 2:end] = rows + others
     return "\n".join(lines)
 
@@ -96,7 +101,7 @@ def readmes(tables):
         full = os.path.join(REPO, path)
         with open(full) as f:
             text = f.read()
-        kind_rows = {(s, a, k): tables[k] for p, s, a, k in README_TABLES if p == path}
+        kind_rows = {(s, a, k, x): tables[k] for p, s, a, k, x in README_TABLES if p == path}
         out[full] = render_readme(text, kind_rows)
     return out
 

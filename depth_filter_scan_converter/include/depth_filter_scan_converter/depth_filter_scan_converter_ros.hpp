@@ -22,12 +22,11 @@
 #include <vector>
 
 #include "depth_filter_scan_converter/DepthFilterScanConverterConfig.h"
-#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "depth_filter_scan_converter/projector.hpp"
 #include "depth_filter_scan_converter/converter_glue.hpp"
 #include "depth_filter_scan_converter/copy_once_subscription.hpp"
 #include "depth_filter_scan_converter/depth_image_view.hpp"
 #include "depth_filter_scan_converter/parameters.hpp"
-#include "depth_filter_scan_converter/projector.hpp"
 #include "laserscan_common/message_checks.hpp"
 #include "laserscan_common/parameter_reader.hpp"
 #include "laserscan_common/self_filter.hpp"

@@ -1,5 +1,6 @@
 // Parameters of the depth-cloud to laser-scan conversion: one struct per concern, defaults in
-// one place, validate() throws laserscan_common::ParameterError naming the ROS parameter.
+// one place, limits in its field table; validate() checks those (laserscan_common::checkLimits)
+// and the rules between fields, throwing laserscan_common::ParameterError naming the parameter.
 // ROS-free (plain C++17): the ROS glue only fills these structs.
 // Lengths in metres, angles in radians, times in seconds (REP 103).
 #pragma once
@@ -34,14 +35,17 @@ void visitFields(P& p, V&& visit)
   visit(p.reference_frame, ParamInfo("reference_frame", "",
                                      "frame of the constraints and of the output scan; its z axis points up; no "
                                      "leading `/` (tf2 refuses it: a start-up error)")
-                             .nonEmpty());
+                             .nonEmpty()
+                             .frameId());
   visit(
     p.transform_tolerance,
     ParamInfo(
       "transform_tolerance", "s",
       "how long an input may wait for its transform, >= 0; one delivered later is dropped (counted in the diagnostics)")
-      .atLeast(0.0));
-  visit(p.tf_buffer_duration, ParamInfo("tf_buffer_duration", "s", "length of the node's tf buffer, > 0").above(0.0));
+      .atLeast(0.0)
+      .finiteOnly());
+  visit(p.tf_buffer_duration,
+        ParamInfo("tf_buffer_duration", "s", "length of the node's tf buffer, > 0").above(0.0).finiteOnly());
 }
 
 /// The height band in reference_frame, and holes below the floor.
@@ -62,7 +66,8 @@ void visitFields(P& p, V&& visit)
 {
   visit(p.floor_height,
         ParamInfo("floor_height", "m",
-                  "z of the floor in `reference_frame` (e.g. `-0.147` when base_link is 14.7 cm above the floor)"));
+                  "z of the floor in `reference_frame` (e.g. `-0.147` when base_link is 14.7 cm above the floor)")
+          .finiteOnly());
   visit(p.min_height, ParamInfo("min_height", "m", "bottom of the obstacle band, above the floor (may be `-.inf`)"));
   visit(p.max_height,
         ParamInfo("max_height", "m",
@@ -70,7 +75,9 @@ void visitFields(P& p, V&& visit)
   visit(p.hole_detection,
         ParamInfo("hole_detection", "", "points lower than `floor_height - hole_depth` become obstacles (rule 2)"));
   visit(p.hole_depth,
-        ParamInfo("hole_depth", "m", "how far below the floor a point must be to be a hole, >= 0").atLeast(0.0));
+        ParamInfo("hole_depth", "m", "how far below the floor a point must be to be a hole, >= 0")
+          .atLeast(0.0)
+          .finiteOnly());
 }
 
 /// Geometry of the scan and the values it writes (REP 117).
@@ -113,12 +120,13 @@ void visitFields(P& p, V&& visit)
       .angleWithin(2.0 * M_PI)
       .shownAs("`pi`"));
   visit(p.angle_increment,
-        ParamInfo("angle_increment", "rad", "beam spacing, > 0").above(0.0).shownAs("`pi/720` (0.25 deg)"));
+        ParamInfo("angle_increment", "rad", "beam spacing, > 0").above(0.0).finiteOnly().shownAs("`pi/720` (0.25 deg)"));
   visit(p.range_min,
         ParamInfo("range_min", "m",
                   "smallest planar distance (from `reference_frame`'s origin) the scan reports, >= 0; a beam whose "
                   "closest obstacle is nearer reads \"too close\" (see `too_close_at_range_min`), never \"no return\"")
-          .atLeast(0.0));
+          .atLeast(0.0)
+          .finiteOnly());
   visit(p.range_max,
         ParamInfo("range_max", "m",
                   "largest planar distance kept (may be `.inf` when `use_inf` is true); `range_min < range_max`")
@@ -129,7 +137,7 @@ void visitFields(P& p, V&& visit)
                   "consumers that drop `-Inf` but must still see something right in front of the camera)"));
   visit(p.use_inf,
         ParamInfo("use_inf", "", "\"no return\" is `+Inf` (REP 117); when false it is `range_max + inf_epsilon`"));
-  visit(p.inf_epsilon, ParamInfo("inf_epsilon", "m", "see `use_inf`, >= 0").atLeast(0.0));
+  visit(p.inf_epsilon, ParamInfo("inf_epsilon", "m", "see `use_inf`, >= 0").atLeast(0.0).finiteOnly());
 }
 
 /// Range noise of one point, std = range_noise_std + range_noise_std_per_m2 * range^2 (a depth

@@ -5,13 +5,23 @@
 #include <cstdint>
 #include <vector>
 
-#include "depth_filter_scan_converter/cloud_view.hpp"
 #include "depth_filter_scan_converter/depth_image_view.hpp"
 #include "depth_filter_scan_converter/parameters.hpp"
+#include "laserscan_common/cloud_view.hpp"
 #include "laserscan_common/self_filter.hpp"
 
 namespace depth_filter_scan_converter
 {
+// The cloud view is laserscan_common's (the navigator reads clouds through it too).
+using laserscan_common::CloudLayout;
+using laserscan_common::cloudLayoutOf;
+using laserscan_common::CloudView;
+using laserscan_common::FieldDescription;
+using laserscan_common::FieldType;
+using laserscan_common::fieldTypeSize;
+using laserscan_common::makeCloudView;
+using laserscan_common::readField;
+
 /// Fills the ranges (and intensities) of a scan from a cloud.
 ///
 /// Rules, all in the reference frame (z up):
@@ -103,8 +113,5 @@ private:
 /// Projector. Baseline for benchmarks and an independent check in tests.
 void referenceProject(const Parameters& params, const CloudView& cloud, const Eigen::Isometry3d& camera_to_reference,
                       std::vector<float>& ranges, std::vector<float>* intensities = nullptr);
-
-/// Reads one value of a field as double (any PointField datatype).
-double readField(const std::uint8_t* p, FieldType type);
 
 }  // namespace depth_filter_scan_converter

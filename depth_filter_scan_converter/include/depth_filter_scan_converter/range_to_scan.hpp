@@ -52,6 +52,7 @@ void visitFields(P& p, V&& visit)
                                      "largest spacing between the arc's beams, > 2 pi / 100000; the merger's default "
                                      "output resolution, so the arc leaves no gaps in its bins")
                              .above(2.0 * M_PI / 100000.0)
+                             .finiteOnly()
                              .shownAs("`0.004363323` (pi/720, 0.25 deg)"));
   visit(p.min_consecutive_readings,
         ParamInfo("min_consecutive_readings", "readings",

@@ -26,24 +26,31 @@ void fromXmlRpc(XmlRpc::XmlRpcValue& value, const std::string& name, std::string
 void fromXmlRpc(XmlRpc::XmlRpcValue& value, const std::string& name, std::vector<std::string>& out);
 void fromXmlRpc(XmlRpc::XmlRpcValue& value, const std::string& name, Polygon& out);
 
-/// Reads the fields of a dictionary parameter (a merger source, ...) by `P`'s table: every key
-/// must be a field (an unknown one is a ParameterError "<prefix>.<key>: unknown key", with the
-/// closest field named), every field present must have its type. Fields of other types than
-/// those fromXmlRpc converts are left to the caller (`skip`).
+/// Refuses a key of a dictionary parameter (a merger source, the self_filter block) that is not a
+/// field of `P`'s table: a ParameterError "<prefix><key>: unknown key", with the closest field
+/// named. `prefix` ends with its separator ("sources[1].", "self_filter/").
 template <class P>
-void readDictionary(XmlRpc::XmlRpcValue& dict, const std::string& prefix, P& params)
+void refuseUnknownKeys(XmlRpc::XmlRpcValue& dict, const std::string& prefix, const P& params)
 {
   const std::vector<std::string> known = fieldNames(params);
   for (auto& kv : dict)
     if (std::find(known.begin(), known.end(), kv.first) == known.end())
     {
       const std::string close = closestName(kv.first, known);
-      throw ParameterError(prefix + "." + kv.first,
+      throw ParameterError(prefix + kv.first,
                            close.empty() ? "unknown key" : "unknown key (did you mean '" + close + "'?)");
     }
+}
+
+/// Reads the fields of a dictionary parameter by `P`'s table: every key must be a field
+/// (refuseUnknownKeys), every field present must have its type.
+template <class P>
+void readDictionary(XmlRpc::XmlRpcValue& dict, const std::string& prefix, P& params)
+{
+  refuseUnknownKeys(dict, prefix, params);
   visitFields(params, [&dict, &prefix](auto& value, const ParamInfo& info) {
     if (dict.hasMember(info.name))
-      fromXmlRpc(dict[info.name], prefix + "." + info.name, value);
+      fromXmlRpc(dict[info.name], prefix + info.name, value);
   });
 }
 

@@ -60,7 +60,7 @@ P fromDict(const py::dict& d)
 }
 
 /// P's table: one dict per field (name, type, unit, default, lo, hi, lo_open, finite,
-/// nonempty, angle, default_text, meaning), defaults from a default-constructed P.
+/// nonempty, frame_id, angle, default_text, meaning), defaults from a default-constructed P.
 template <class P>
 py::list table()
 {
@@ -77,6 +77,7 @@ py::list table()
     d["lo_open"] = info.lo_open;
     d["finite"] = info.finite;
     d["nonempty"] = info.nonempty;
+    d["frame_id"] = info.frame_id;
     d["angle"] = info.angle;
     d["default_text"] = info.default_text;
     d["meaning"] = info.meaning;

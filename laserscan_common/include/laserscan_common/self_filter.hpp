@@ -14,7 +14,10 @@
 #include <cstring>
 #include <limits>
 #include <string>
+#include <type_traits>
 #include <vector>
+
+#include "laserscan_common/parameter_table.hpp"
 
 namespace laserscan_common
 {
@@ -219,6 +222,48 @@ __attribute__((always_inline)) inline bool SelfFilter::markInside(std::size_t n,
   if (b0 < n)
     any |= markBlock(posed_, n - b0, xs + b0, ys + b0, zs + b0, active + b0, inside + b0);
   return any != 0;
+}
+
+/// The `self_filter` block of a node's private parameters (every key optional), as the
+/// converters and the merger read it (self_filter_parameters.hpp).
+struct SelfFilterParams
+{
+  bool use_robot_description = false;  ///< shapes from the URDF in the `robot_description` parameter
+  std::vector<std::string> links;      ///< links of the description to take; empty: every link with a collision
+  double padding = 0.02;  ///< m, margin around every shape of the description (and listed shapes without their own)
+  std::vector<RobotShape> shapes;  ///< listed shapes (parts the description lacks, e.g. a carried load)
+
+  bool enabled() const { return use_robot_description || !shapes.empty(); }
+  /// Throws ParameterError ("self_filter/<key>").
+  void validate() const;
+};
+
+inline const char* typeName(const std::vector<RobotShape>&)
+{
+  return "shape list";
+}
+
+/// The table of SelfFilterParams (parameter_table.hpp): the keys of the `self_filter` block.
+/// `padding` comes before `shapes`: a listed shape without its own padding takes the block's.
+template <class P, class V, std::enable_if_t<std::is_same_v<std::decay_t<P>, SelfFilterParams>, int> = 0>
+void visitFields(P& p, V&& visit)
+{
+  visit(p.use_robot_description,
+        ParamInfo("use_robot_description", "",
+                  "take the collision elements of the URDF in the `robot_description` parameter (the node's "
+                  "namespace); an empty, missing or unparsable description is an error at start-up"));
+  visit(p.links, ParamInfo("links", "",
+                           "the description's links to take (each must exist and have a collision element); empty: "
+                           "every link that has one; needs `use_robot_description: true`"));
+  visit(p.padding, ParamInfo("padding", "m",
+                             "margin around every shape of the description, and of every listed shape without its own "
+                             "`padding`; finite, >= 0")
+                     .atLeast(0.0)
+                     .finiteOnly());
+  visit(p.shapes, ParamInfo("shapes", "",
+                            "further shapes (a carried load, a part the URDF lacks): `{name, frame, type: "
+                            "box\\|cylinder\\|sphere, size \\| radius [+ length], origin: [x, y, z, roll, pitch, yaw], "
+                            "padding}`; `frame` and `type` required, `origin` (m, rad) in `frame`, default zero"));
 }
 
 }  // namespace laserscan_common

@@ -1,5 +1,6 @@
 // The ROS side of the self filter, shared by the converters and the merger: the `self_filter`
-// parameter block (strict: a wrong type or an unknown key is a ParameterError naming it), the
+// parameter block (SelfFilterParams' table, self_filter.hpp; strict: a wrong type or an unknown
+// key is a ParameterError naming it), the
 // shapes it describes (robot_description's collision elements and/or listed shapes), and the tf
 // lookup of their frames at a message's stamp (one per frame and message, never per point).
 #pragma once
@@ -15,19 +16,6 @@
 
 namespace laserscan_common
 {
-
-/// The `self_filter` block of a node's private parameters (every key optional).
-struct SelfFilterParams
-{
-  bool use_robot_description = false;  ///< shapes from the URDF in the `robot_description` parameter
-  std::vector<std::string> links;      ///< links of the description to take; empty: every link with a collision
-  double padding = 0.02;  ///< m, margin around every shape of the description (and listed shapes without their own)
-  std::vector<RobotShape> shapes;  ///< listed shapes (parts the description lacks, e.g. a carried load)
-
-  bool enabled() const { return use_robot_description || !shapes.empty(); }
-  /// Throws ParameterError ("self_filter/<key>").
-  void validate() const;
-};
 
 /// Reads `<private_nh>/<key>` (absent: the filter is off) by the toolbox's one strict rule.
 /// Throws ParameterError.

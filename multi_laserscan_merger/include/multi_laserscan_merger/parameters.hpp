@@ -1,5 +1,6 @@
 // Parameters of the merger: one struct per concern, defaults in one place,
-// validate() throws ParameterError naming the offending parameter.
+// limits in its field table; validate() checks those (laserscan_common::checkLimits) and the
+// rules between fields, throwing ParameterError naming the offending parameter.
 // ROS-free (plain C++17): the ROS glue only fills these structs.
 #pragma once
 
@@ -57,7 +58,8 @@ void visitFields(P& p, V&& visit)
 {
   visit(p.frame,
         ParamInfo("output_frame", "", "frame of the merged scan; its z axis is the scan's axis; no leading `/`")
-          .nonEmpty());
+          .nonEmpty()
+          .frameId());
   visit(p.angle_min,
         ParamInfo("angle_min", "rad", "first output beam, in [-2 pi, 2 pi]").angleWithin(2.0 * kPi).shownAs("`-pi`"));
   visit(p.angle_max,
@@ -65,11 +67,15 @@ void visitFields(P& p, V&& visit)
           .angleWithin(2.0 * kPi)
           .shownAs("`pi`"));
   visit(p.angle_increment,
-        ParamInfo("angle_increment", "rad", "output resolution (0.25 degree), > 0").above(0.0).shownAs("`pi/720`"));
+        ParamInfo("angle_increment", "rad", "output resolution (0.25 degree), > 0")
+          .above(0.0)
+          .finiteOnly()
+          .shownAs("`pi/720`"));
   visit(p.range_min,
         ParamInfo("range_min", "m",
                   "fused ranges closer than this (planar, from the frame's origin) become -Inf (too close), >= 0")
-          .atLeast(0.0));
+          .atLeast(0.0)
+          .finiteOnly());
   visit(p.range_max,
         ParamInfo("range_max", "m",
                   "fused ranges farther become \"no return\"; also the message's `range_max`; `range_min < range_max`")
@@ -77,7 +83,7 @@ void visitFields(P& p, V&& visit)
   visit(p.use_inf,
         ParamInfo("use_inf", "",
                   "\"no return\" is +Inf (REP 117); false: `range_max + inf_epsilon` (needs a finite `range_max`)"));
-  visit(p.inf_epsilon, ParamInfo("inf_epsilon", "m", "see `use_inf`, >= 0").atLeast(0.0));
+  visit(p.inf_epsilon, ParamInfo("inf_epsilon", "m", "see `use_inf`, >= 0").atLeast(0.0).finiteOnly());
   visit(
     p.finite_only,
     ParamInfo("finite_only", "",
@@ -170,9 +176,6 @@ void visitFields(P& p, V&& visit)
 /// Smallest publish_rate (Hz) other than 0: its period must fit a ros::Duration (2^31 s).
 constexpr double kMinPublishRate = 1e-6;
 
-/// Largest sync_window (s): it is a bound on latency, meant to be milliseconds.
-constexpr double kMaxSyncWindow = 1.0;
-
 /// Everything the merger needs.
 struct MergerParams
 {
@@ -200,8 +203,10 @@ void visitFields(P& p, V&& visit)
   visit(p.odom_topic, ParamInfo("odom_topic", "", "odometry for motion compensation; `\"\"` disables it (and deskew)"));
   visit(p.odom_queue_size, ParamInfo("odom_queue_size", "messages", "odometry poses kept, >= 2").atLeast(2));
   visit(p.publish_rate,
-        ParamInfo("publish_rate", "Hz", "0: one output per new input scan (no timer, no polling); > 0: fixed rate")
-          .atLeast(0.0));
+        ParamInfo("publish_rate", "Hz",
+                  "0: one output per new input scan (no timer, no polling); > 0: fixed rate, at least 1e-6 Hz")
+          .atLeast(0.0)
+          .finiteOnly());
   visit(p.sync_window,
         ParamInfo("sync_window", "s",
                   "longest wait of an output for other sources' scans due at its stamp (sources that share stamps, "

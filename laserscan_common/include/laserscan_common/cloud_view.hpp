@@ -1,11 +1,16 @@
-// Zero-copy view over a raw point buffer laid out like sensor_msgs/PointCloud2 (ROS-free).
+// Zero-copy view over a raw point buffer laid out like sensor_msgs/PointCloud2 (ROS-free): the
+// one reading of a cloud's x/y/z fields, strides and rows, organized or not, for the depth
+// converters and the navigator.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 
-namespace depth_filter_scan_converter
+namespace laserscan_common
 {
 /// Field datatypes, numbered as in sensor_msgs/PointField.
 enum class FieldType : std::uint8_t
@@ -49,7 +54,41 @@ struct CloudView
   FieldType intensity_type = FieldType::Float32;
 
   std::size_t size() const { return static_cast<std::size_t>(width) * height; }
+  /// The first byte of the point in `row` and `column` (rows are row_step bytes apart).
+  const std::uint8_t* point(std::size_t row, std::size_t column) const
+  {
+    return data + row * row_step + column * point_step;
+  }
 };
+
+/// Reads one value of a field as double (any PointField datatype).
+inline double readField(const std::uint8_t* p, FieldType type)
+{
+  const auto load = [p](auto value) {
+    std::memcpy(&value, p, sizeof value);
+    return static_cast<double>(value);
+  };
+  switch (type)
+  {
+    case FieldType::Int8:
+      return load(std::int8_t{});
+    case FieldType::UInt8:
+      return load(std::uint8_t{});
+    case FieldType::Int16:
+      return load(std::int16_t{});
+    case FieldType::UInt16:
+      return load(std::uint16_t{});
+    case FieldType::Int32:
+      return load(std::int32_t{});
+    case FieldType::UInt32:
+      return load(std::uint32_t{});
+    case FieldType::Float32:
+      return load(float{});
+    case FieldType::Float64:
+      return load(double{});
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
 
 /// Everything of a PointCloud2 header that decides whether its bytes can be read.
 struct CloudLayout
@@ -86,4 +125,4 @@ CloudLayout cloudLayoutOf(const Cloud& cloud)
 std::string makeCloudView(const CloudLayout& layout, const std::uint8_t* data, std::size_t data_size,
                           const std::string& intensity_field, CloudView& view, std::string* intensity_note = nullptr);
 
-}  // namespace depth_filter_scan_converter
+}  // namespace laserscan_common

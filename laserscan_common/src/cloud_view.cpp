@@ -1,6 +1,6 @@
-#include "depth_filter_scan_converter/cloud_view.hpp"
+#include "laserscan_common/cloud_view.hpp"
 
-namespace depth_filter_scan_converter
+namespace laserscan_common
 {
 std::size_t fieldTypeSize(std::uint8_t datatype)
 {
@@ -111,4 +111,4 @@ std::string makeCloudView(const CloudLayout& layout, const std::uint8_t* data, s
   return {};
 }
 
-}  // namespace depth_filter_scan_converter
+}  // namespace laserscan_common
