@@ -61,7 +61,8 @@ struct ArmInput
 {
   Input in;
   laserscan_common::SelfFilter filter;
-  std::size_t arm_points = 0;  // valid points inside the padded shapes
+  std::vector<Eigen::Isometry3d> poses;  // reference <- link frame, as tf gives them per cloud
+  std::size_t arm_points = 0;            // valid points inside the padded shapes
 };
 
 ArmInput makeArmInput(const Vector3d& arm_offset)
@@ -83,7 +84,7 @@ ArmInput makeArmInput(const Vector3d& arm_offset)
   for (Box& link : links)
     link.lo += arm_offset, link.hi += arm_offset;
   std::vector<laserscan_common::RobotShape> shapes;
-  std::vector<Eigen::Isometry3d> poses;
+  std::vector<Eigen::Isometry3d>& poses = a.poses;
   for (std::size_t i = 0; i < links.size(); ++i)
   {
     scene.boxes.push_back(links[i]);
@@ -179,14 +180,18 @@ void runCore(benchmark::State& state, const Input* in)
     benchmark::Counter(static_cast<double>(in->view.size()), benchmark::Counter::kIsIterationInvariantRate);
 }
 
-// An arm cloud through the core, without and with the self filter.
+// An arm cloud through the core, without and with the self filter. With it, the shapes are
+// posed for every cloud, as the node does at each cloud's stamp (setFramePosesAt).
 void runArmCloud(benchmark::State& state, const ArmInput& a, bool self_filter)
 {
   dfsc::Projector projector{ dfsc::Parameters() };
+  laserscan_common::SelfFilter filter = a.filter;
   std::vector<float> ranges;
   for (auto _ : state)
   {
-    projector.project(a.in.view, a.in.camera_to_reference, ranges, nullptr, nullptr, self_filter ? &a.filter : nullptr);
+    if (self_filter)
+      filter.setFramePoses(a.poses);
+    projector.project(a.in.view, a.in.camera_to_reference, ranges, nullptr, nullptr, self_filter ? &filter : nullptr);
     benchmark::DoNotOptimize(ranges.data());
   }
 }
