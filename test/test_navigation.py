@@ -35,7 +35,9 @@ def test_the_readme_lists_every_navigator_parameter():
                                                    "shape_3d[0].height"),
     ("max_linear_speed", 0, "max_linear_speed"), ("path_count", 2, "path_count"), ("lockstep", 1, "lockstep"),
     ("self_padding", -0.1, "self_padding"), ("control_rate", float("inf"), "control_rate"),
-    ("obstacle_memory", -1.0, "obstacle_memory"),
+    ("obstacle_memory", -1.0, "obstacle_memory"), ("planner", 1, "planner"), ("planner_rate", 0, "planner_rate"),
+    ("planner_resolution", 2.0, "planner_resolution"), ("planner_memory", -1.0, "planner_memory"),
+    ("planner_inflation", -0.1, "planner_inflation"), ("carrot_distance", 0, "carrot_distance"),
 ])
 def test_check_config_names_each_bad_navigator_value(key, value, says):
     params = {"scan_topics": ["merged_scan"], key: value}
@@ -96,6 +98,23 @@ def test_targets_from_runs():
     t = navigation.targets(runs)
     assert not t["system_cpu_below_raw_from_50k_table"]["met"]
     assert not t["unified_reached_without_collision"]["met"]
+
+
+def test_the_check_requires_every_target_one_point_count_decides():
+    runs = [row("unified", 50000, 15.0, 25.0, 20.5), row("raw_3d", 50000, 160.0, 160.0, 20.0),
+            row("lidar_only", 50000, 7.0, 7.0, c3d=1)]
+    assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == []
+    # Unified not reached: missed, and its time cannot be compared: missed too (all modes ran).
+    runs[0].update(reached=False, time_to_goal_s=None)
+    assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == [
+        "unified_reached_without_collision", "unified_time_within_5_percent_of_raw_3d"]
+    # The lidar-only mode going round the table: its miss not shown.
+    runs[0].update(reached=True, time_to_goal_s=20.5)
+    runs[2]["collisions_3d"] = 0
+    assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == ["lidar_only_misses_3d_obstacle"]
+    # A sweep's targets are not checked (flatness, 300k), nor an undecided one whose mode did not run.
+    only = runs[:2]
+    assert navigation.check({"runs": only, "targets": navigation.targets(only)}) == []
 
 
 def test_a_short_closed_loop_run_end_to_end(tmp_path):

@@ -1,4 +1,5 @@
 #include "reactive_navigator/navigator_core.hpp"
+#include "reactive_navigator/global_planner.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -61,6 +62,30 @@ double circumradius(const Polygon& polygon)
   for (const auto& v : polygon)
     r = std::max(r, v.norm());
   return r;
+}
+
+// The robot's circle as MRPT's CPTG_Holo_Blend takes it: around the footprint (2d), around every
+// level of the shape (3d).
+double robotRadius(const NavigatorParameters& p)
+{
+  if (!p.volumetric())
+    return circumradius(p.footprint);
+  double r = 0.0;
+  for (const auto& level : p.shape_3d)
+    r = std::max(r, circumradius(level.polygon));
+  return r;
+}
+
+PlannerSettings plannerSettings(const NavigatorParameters& p)
+{
+  PlannerSettings s;
+  s.resolution = p.planner_resolution;
+  s.memory = p.planner_memory;
+  s.robot_radius = robotRadius(p);
+  s.inflation = p.planner_inflation;
+  s.clearance = p.planner_clearance;
+  s.margin = p.planner_margin;
+  return s;
 }
 
 std::string joined(const Polygon& polygon, int axis)
@@ -222,6 +247,74 @@ struct NavigatorCore::Impl : public mrpt::nav::CRobot2NavInterface
   };
   std::unordered_map<std::int64_t, Remembered> memory;
 
+  // The global layer (parameters.planner): the path MRPT's target is taken from.
+  std::unique_ptr<GlobalPlanner> planner;
+  long plan_index = -1;  // the planner_rate period of the last plan
+  bool has_path = false;
+  double remaining_path = std::nan("");  // m along the path from the robot to the goal
+  // MRPT's current target: the goal (final) or a carrot on the path.
+  bool final_target = true;
+  Eigen::Vector2d target{ 0.0, 0.0 };
+
+  // Gives MRPT the target (odometry frame) unless it is navigating to it already. A carrot is an
+  // intermediate waypoint: MRPT neither slows down for it nor ends the navigation there.
+  void aim(const Eigen::Vector2d& point, bool final)
+  {
+    if (final == final_target && (point - target).norm() < 1e-3 &&
+        navigator->getCurrentState() == mrpt::nav::CAbstractNavigator::NAVIGATING)
+      return;
+    if (navigator->getCurrentState() == mrpt::nav::CAbstractNavigator::NAV_ERROR)
+      navigator->resetNavError();
+    mrpt::nav::CAbstractPTGBasedReactive::TNavigationParamsPTG request;
+    request.target.target_coords = mrpt::math::TPose2D(point.x(), point.y(), 0.0);
+    request.target.target_frame_id = "map";
+    request.target.targetAllowedDistance = static_cast<float>(parameters.goal_tolerance);
+    request.target.targetIsRelative = false;
+    if (!final)
+    {
+      request.target.targetDesiredRelSpeed = 1.0;
+      request.target.targetIsIntermediaryWaypoint = true;
+    }
+    navigator->navigate(&request);
+    final_target = final;
+    target = point;
+  }
+
+  // The step's own points (odometry frame) into the planner's grid: in 3d those the robot's shape
+  // reaches (MRPT ignores the points above its top).
+  void markObstacles(double now)
+  {
+    const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
+    for (const auto& p : obstacles)
+      if (!parameters.volumetric() || shapeAt(parameters, p.z()) != nullptr)
+        planner->mark(pose.x + c * p.x() - s * p.y(), pose.y + s * p.x() + c * p.y(), now);
+  }
+
+  // Replans at planner_rate and aims MRPT at the carrot; returns the path's length left to the
+  // goal (m), or NaN without a path (MRPT is then aimed at the goal itself).
+  double followPath(double now)
+  {
+    const Eigen::Vector2d here(pose.x, pose.y), goal(goal_x, goal_y);
+    const long period = static_cast<long>(std::floor(now * parameters.planner_rate + 1e-6));
+    if (period != plan_index)
+    {
+      has_path = planner->plan(now, here, goal);
+      plan_index = period;
+    }
+    if (!has_path)
+    {
+      aim(goal, true);
+      return std::nan("");
+    }
+    double remaining = 0.0;
+    const Eigen::Vector2d carrot = planner->carrot(here, parameters.carrot_distance, remaining);
+    if (remaining <= parameters.carrot_distance)
+      aim(goal, true);
+    else
+      aim(carrot, false);
+    return remaining;
+  }
+
   bool isOwnBody(const Eigen::Vector3f& point) const
   {
     const Polygon* shape = shapeAt(parameters, point.z());
@@ -292,6 +385,8 @@ struct NavigatorCore::Impl : public mrpt::nav::CRobot2NavInterface
     config.getContent(text);
     navigator->loadConfigFile(mrpt::config::CConfigFileMemory(text));
     navigator->initialize();
+    if (p.planner)
+      planner = std::make_unique<GlobalPlanner>(plannerSettings(p));
     // Its delay statistics would be printed at every destruction (the object is not const).
     const_cast<mrpt::system::CTimeLogger&>(navigator->getDelaysTimeLogger()).enable(false);
   }
@@ -344,10 +439,24 @@ struct NavigatorCore::Impl : public mrpt::nav::CRobot2NavInterface
     return true;
   }
 
-  void sendNavigationEndEvent() override { state = NavigationState::Reached; }
+  // A carrot is only a step on the way: reaching it, or finding it inside an obstacle, is the
+  // planner's business at its next plan; the goal's events end the navigation.
+  void sendNavigationEndEvent() override
+  {
+    if (final_target)
+      state = NavigationState::Reached;
+  }
   void sendWaySeemsBlockedEvent() override { state = NavigationState::Blocked; }
-  void sendCannotGetCloserToBlockedTargetEvent() override { state = NavigationState::Blocked; }
-  void sendNavigationEndDueToErrorEvent() override { state = NavigationState::Blocked; }
+  void sendCannotGetCloserToBlockedTargetEvent() override
+  {
+    if (final_target)
+      state = NavigationState::Blocked;
+  }
+  void sendNavigationEndDueToErrorEvent() override
+  {
+    if (final_target)
+      state = NavigationState::Blocked;
+  }
 
   // MRPT's timers (the "not approaching the goal" alarm) run on the caller's clock.
   double getNavigationTime() override { return time - timer_start; }
@@ -366,18 +475,16 @@ void NavigatorCore::setGoal(double x, double y)
 {
   if (std::isfinite(impl_->previous_time))
     useCallersClock(impl_->previous_time);
-  if (impl_->navigator->getCurrentState() == mrpt::nav::CAbstractNavigator::NAV_ERROR)
-    impl_->navigator->resetNavError();
-  mrpt::nav::CAbstractPTGBasedReactive::TNavigationParamsPTG request;
-  request.target.target_coords = mrpt::math::TPose2D(x, y, 0.0);
-  request.target.target_frame_id = "map";
-  request.target.targetAllowedDistance = static_cast<float>(impl_->parameters.goal_tolerance);
-  request.target.targetIsRelative = false;
-  impl_->navigator->navigate(&request);
+  // MRPT's target is the goal until the first plan (at the next step).
+  impl_->final_target = false;
+  impl_->aim(Eigen::Vector2d(x, y), true);
   impl_->state = NavigationState::Navigating;
   impl_->goal_x = x;
   impl_->goal_y = y;
   impl_->best_distance = std::numeric_limits<double>::infinity();
+  impl_->plan_index = -1;
+  impl_->has_path = false;
+  impl_->remaining_path = std::nan("");
 }
 
 Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints& obstacles)
@@ -402,13 +509,18 @@ Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints
     else
       d.obstacles.push_back(point);
   }
+  if (d.planner)
+    d.markObstacles(time);
   if (d.parameters.obstacle_memory > 0.0)
     d.remember(time);
 
   if (d.state == NavigationState::Navigating)
   {
-    // Blocked: not kProgress closer to the goal for blocked_timeout.
-    const double distance = std::hypot(d.goal_x - pose.x, d.goal_y - pose.y);
+    // Blocked: not kProgress closer to the goal for blocked_timeout; along the path when there is
+    // one (going round a table takes the robot farther from the goal for a while).
+    d.remaining_path = d.planner ? d.followPath(time) : std::nan("");
+    const double distance =
+      std::isfinite(d.remaining_path) ? d.remaining_path : std::hypot(d.goal_x - pose.x, d.goal_y - pose.y);
     if (distance < d.best_distance - kProgress || !std::isfinite(d.best_distance))
     {
       d.best_distance = distance;
@@ -420,7 +532,8 @@ Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints
   if (d.state == NavigationState::Navigating)
   {
     d.navigator->navigationStep();
-    if (d.navigator->getCurrentState() == mrpt::nav::CAbstractNavigator::NAV_ERROR)
+    // An error on the way to a carrot: the next step aims again (blocked_timeout is the limit).
+    if (d.navigator->getCurrentState() == mrpt::nav::CAbstractNavigator::NAV_ERROR && d.final_target)
       d.state = NavigationState::Blocked;
   }
   if (d.state != NavigationState::Navigating)
@@ -447,6 +560,19 @@ std::size_t NavigatorCore::lastSelfPoints() const
 std::size_t NavigatorCore::lastRememberedPoints() const
 {
   return impl_->remembered_points;
+}
+double NavigatorCore::remainingPath() const
+{
+  return impl_->remaining_path;
+}
+std::size_t NavigatorCore::plannerCells() const
+{
+  return impl_->planner ? impl_->planner->occupiedCells() : 0;
+}
+const std::vector<Eigen::Vector2d>& NavigatorCore::plannedPath() const
+{
+  static const std::vector<Eigen::Vector2d> none;
+  return impl_->planner && impl_->has_path ? impl_->planner->path() : none;
 }
 const NavigatorParameters& NavigatorCore::parameters() const
 {

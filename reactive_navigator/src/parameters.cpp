@@ -83,6 +83,18 @@ void NavigatorParameters::validate() const
     throw ParameterError("obstacle_memory", "must be a finite number >= 0 (s; 0 = no memory)");
   if (path_count < 3 || path_count > 1001)
     throw ParameterError("path_count", "must be within [3, 1001]");
+  // Global planner.
+  requirePositive("planner_rate", planner_rate);
+  requirePositive("planner_resolution", planner_resolution);
+  if (planner_resolution > 1.0)
+    throw ParameterError("planner_resolution", "must be at most 1 m (the cell must resolve a passage)");
+  requirePositive("planner_memory", planner_memory);
+  if (!std::isfinite(planner_inflation) || planner_inflation < 0.0)
+    throw ParameterError("planner_inflation", "must be a finite number >= 0");
+  if (!std::isfinite(planner_clearance) || planner_clearance < 0.0)
+    throw ParameterError("planner_clearance", "must be a finite number >= 0");
+  requirePositive("planner_margin", planner_margin);
+  requirePositive("carrot_distance", carrot_distance);
 }
 
 void NodeParameters::validate() const

@@ -82,6 +82,15 @@ void readParameters(laserscan_common::ParameterReader& reader, NavigatorParamete
   reader.read("blocked_timeout", p.blocked_timeout);
   reader.read("self_padding", p.self_padding);
   reader.read("obstacle_memory", p.obstacle_memory);
+  // Global planner.
+  reader.read("planner", p.planner);
+  reader.read("planner_rate", p.planner_rate);
+  reader.read("planner_resolution", p.planner_resolution);
+  reader.read("planner_memory", p.planner_memory);
+  reader.read("planner_inflation", p.planner_inflation);
+  reader.read("planner_clearance", p.planner_clearance);
+  reader.read("planner_margin", p.planner_margin);
+  reader.read("carrot_distance", p.carrot_distance);
   p.validate();
 
   reader.read("scan_topics", n.scan_topics);
@@ -476,6 +485,12 @@ void ReactiveNavigatorRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper&
   status.add("obstacle points per step", steps_ ? points_sum_ / steps_ : 0);
   status.add("own body points per step", steps_ ? self_points_sum_ / steps_ : 0);
   status.add("remembered points per step", steps_ ? remembered_points_sum_ / steps_ : 0);
+  status.add("planner", navigator_parameters_.planner ? "on" : "off");
+  if (navigator_parameters_.planner)
+  {
+    status.add("planner obstacle cells", core_->plannerCells());
+    status.add("path left (m)", core_->remainingPath());
+  }
   cpu_sum_ = cpu_max_ = 0.0;
   points_sum_ = self_points_sum_ = remembered_points_sum_ = steps_ = 0;
 }

@@ -105,7 +105,9 @@ TEST(NavigatorCore, TakesAGapItFitsThrough)
   EXPECT_EQ(run.state, NavigationState::Reached);
   for (const auto& pose : run.path)
     if (std::abs(pose.x - 2.0) < 0.05)
+    {
       EXPECT_LT(std::abs(pose.y - 0.5), 0.65) << "crossed the wall outside the gap at y = " << pose.y;
+    }
 }
 
 // A table across the way, its top at the arm's height (0.70 - 0.75 m), legs far to the sides.
@@ -268,6 +270,45 @@ TEST(NavigatorCore, SameInputsGiveTheSameRun)
   }
 }
 
+// A U open towards the robot, the goal behind its bottom (walls every 5 cm at 0.2 m).
+ObstaclePoints uTrap()
+{
+  ObstaclePoints points;
+  addWallAlongY(points, 2.5, -1.5, 1.5);
+  for (double x = 1.0; x <= 2.5 + 1e-9; x += 0.05)
+    for (double y : { -1.5, 1.5 })
+      points.emplace_back(static_cast<float>(x), static_cast<float>(y), 0.2f);
+  return points;
+}
+
+// The smallest distance from the robot's centre to the U's walls along the run.
+double closestToTheU(const DriveResult& run)
+{
+  double d = INFINITY;
+  for (const auto& pose : run.path)
+  {
+    const double bottom = std::hypot(std::max(std::abs(pose.y) - 1.5, 0.0), pose.x - 2.5);
+    const double dx = std::max({ 1.0 - pose.x, 0.0, pose.x - 2.5 });
+    const double arms = std::min(std::hypot(dx, pose.y - 1.5), std::hypot(dx, pose.y + 1.5));
+    d = std::min({ d, bottom, arms });
+  }
+  return d;
+}
+
+TEST(NavigatorCore, TheLocalMinimumOfAUTrapIsLeftThroughThePlannersPath)
+{
+  // Reactive alone, the U between the robot and the goal is a local minimum: it ends blocked.
+  NavigatorParameters p;
+  p.planner = false;
+  const DriveResult reactive = drive(p, uTrap(), 5.0, 0.0, 60.0);
+  EXPECT_EQ(reactive.state, NavigationState::Blocked);
+  // With the planner's path it goes round the U to the goal, its circle (0.44 m) never touching it.
+  p.planner = true;
+  const DriveResult planned = drive(p, uTrap(), 5.0, 0.0, 60.0);
+  EXPECT_EQ(planned.state, NavigationState::Reached);
+  EXPECT_GT(closestToTheU(planned), 0.44);
+}
+
 // validate() throws ParameterError naming `name`.
 template <class Parameters>
 void expectError(const Parameters& p, const std::string& name)
@@ -330,6 +371,22 @@ TEST(Parameters, EachBadValueNamesItsParameter)
   p = NavigatorParameters();
   p.obstacle_memory = -1.0;
   expectError(p, "obstacle_memory");
+  for (auto [field, name] : std::initializer_list<std::pair<double NavigatorParameters::*, const char*>>{
+         { &NavigatorParameters::planner_rate, "planner_rate" },
+         { &NavigatorParameters::planner_resolution, "planner_resolution" },
+         { &NavigatorParameters::planner_memory, "planner_memory" },
+         { &NavigatorParameters::planner_inflation, "planner_inflation" },
+         { &NavigatorParameters::planner_clearance, "planner_clearance" },
+         { &NavigatorParameters::planner_margin, "planner_margin" },
+         { &NavigatorParameters::carrot_distance, "carrot_distance" } })
+  {
+    p = NavigatorParameters();
+    p.*field = -1.0;
+    expectError(p, name);
+  }
+  p = NavigatorParameters();
+  p.planner_resolution = 2.0;
+  expectError(p, "planner_resolution");
 
   NodeParameters n;
   expectError(n, "scan_topics");

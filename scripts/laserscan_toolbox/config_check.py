@@ -102,6 +102,20 @@ NAVIGATOR = {
     "control_rate": Key("float", 10.0, "Hz", lo=0.0, lo_open=True, finite=True, doc="steps per second (ROS time)"),
     "lockstep": Key("bool", False, doc="steps wait for every source's data (simulation)"),
     "lockstep_timeout": Key("float", 5.0, "s", lo=0.0, lo_open=True, finite=True, doc="wall s a step waits"),
+    # Global planner (reactive_navigator/README.md: Method, 2).
+    "planner": Key("bool", True, doc="A* on a grid of the obstacle points gives MRPT a carrot (false: the goal)"),
+    "planner_rate": Key("float", 2.0, "Hz", lo=0.0, lo_open=True, finite=True, doc="replans per second"),
+    "planner_resolution": Key("float", 0.10, "m", lo=0.0, lo_open=True, hi=1.0, doc="grid cell"),
+    "planner_memory": Key("float", 20.0, "s", lo=0.0, lo_open=True, finite=True,
+                          doc="a cell is an obstacle this long after its last point"),
+    "planner_inflation": Key("float", 0.05, "m", lo=0.0, finite=True,
+                             doc="beyond the robot's circle, as costly as an obstacle"),
+    "planner_clearance": Key("float", 0.20, "m", lo=0.0, finite=True,
+                             doc="beyond that, the extra cost falls to none"),
+    "planner_margin": Key("float", 3.0, "m", lo=0.0, lo_open=True, finite=True,
+                          doc="around the robot and the goal, the search's extent"),
+    "carrot_distance": Key("float", 3.0, "m", lo=0.0, lo_open=True, finite=True,
+                           doc="along the path: MRPT's target"),
 }
 SCHEMAS["navigator"] = NAVIGATOR
 NAVIGATOR_KEYS_ONLY = {"scan_topics", "cloud_topics", "shape_3d", "lockstep", "goal_tolerance"}

@@ -71,6 +71,11 @@ public:
   std::size_t lastSelfPoints() const;
   /// Of lastObstaclePoints(), those remembered from earlier steps (obstacle_memory).
   std::size_t lastRememberedPoints() const;
+  /// Global planner (parameters.planner): the path's length left to the goal at the last step (m;
+  /// NaN without a path), the grid's obstacle cells, and the path (odometry frame; empty without one).
+  double remainingPath() const;
+  std::size_t plannerCells() const;
+  const std::vector<Eigen::Vector2d>& plannedPath() const;
   const NavigatorParameters& parameters() const;
 
 private:

@@ -53,6 +53,23 @@ struct NavigatorParameters
   /// top the cameras no longer see when the robot is under its edge); 0 = only the step's points.
   double obstacle_memory = 2.0;
 
+  // ---- Global planner (global_planner.hpp): an occupancy grid of the navigator's own obstacle
+  // points (the same points MRPT is given: the scan's beams, or in 3d the points up to the robot's
+  // top) and A* on it, replanned at planner_rate; MRPT is given the point carrot_distance ahead
+  // along the path instead of the goal, so that remembered obstacles between the robot and the
+  // goal (a table's top and legs) are gone round rather than a local minimum.
+  bool planner = true;               ///< false: MRPT is given the goal itself (purely reactive)
+  double planner_rate = 2.0;         ///< Hz of the caller's clock: replans per second
+  double planner_resolution = 0.10;  ///< m, grid cell
+  double planner_memory = 20.0;      ///< s: a cell is an obstacle this long after its last point
+  double planner_inflation = 0.05;   ///< m beyond the robot's circle: as costly as an obstacle
+  double planner_clearance = 0.20;   ///< m beyond that over which the extra cost falls to none
+  double planner_margin = 3.0;       ///< m around the robot and the goal that the search covers
+  /// m along the path: MRPT's target (the goal once less is left). Not much less than lookahead:
+  /// MRPT's holonomic method shuns a target close in front of an obstacle (at 1.5 m before a
+  /// 1.3 m gap its commands reversed every half second and it ended blocked; at 3 m it passes).
+  double carrot_distance = 3.0;
+
   void validate() const;
   bool volumetric() const { return mode == "3d"; }
 };

@@ -205,6 +205,11 @@ def targets(runs):
         if raw300 and uni300:
             ratio = raw300[0]["navigator_cpu_percent"] / uni300[0]["navigator_cpu_percent"]
             res["navigator_cpu_10x_below_raw_at_300k_%s" % route] = {"met": ratio >= 10, "figure": ratio}
+        below = [(r["points_per_camera"], r["navigator_cpu_percent"],
+                  by[("raw_3d", route, r["points_per_camera"])][0]["navigator_cpu_percent"])
+                 for r in uni if r["route"] == route and ("raw_3d", route, r["points_per_camera"]) in by]
+        if below:
+            res["navigator_cpu_below_raw_%s" % route] = {"met": all(u < r for _, u, r in below), "figure": below}
         sys_ok = []
         for (mode, rt, pts), rs in sorted(by.items()):
             if mode == "unified" and rt == route and pts >= 50000 and ("raw_3d", rt, pts) in by:
@@ -213,6 +218,21 @@ def targets(runs):
             res["system_cpu_below_raw_from_50k_%s" % route] = {
                 "met": all(u < r for _, u, r in sys_ok), "figure": sys_ok}
     return res
+
+
+#: The targets --check (scripts/demo) requires of the runs (names, or their start before the route):
+#: the issue's that one point count decides (flatness and 300k need the sweep).
+CHECKED = ("unified_reached_without_collision", "unified_time_within_5_percent_of_raw_3d",
+           "lidar_only_misses_3d_obstacle", "navigator_cpu_below_raw", "system_cpu_below_raw_from_50k")
+
+
+def check(res):
+    """The names of the checked targets (those starting with a CHECKED name) that the runs miss;
+    empty: the check passes. A target the runs cannot decide (None, e.g. unified not reached: no
+    time to compare) is missed when all three modes ran, else left out."""
+    every_mode = set(MODES) <= {r["mode"] for r in res["runs"]}
+    return [name for name, t in res["targets"].items()
+            if name.startswith(CHECKED) and t["met"] is not True and (t["met"] is False or every_mode)]
 
 
 def experiment(outdir, points=POINTS, modes=MODES, routes=ROUTES, seed=0, timeout_s=60.0):
@@ -288,9 +308,10 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0, help="the simulator's seed (default 0)")
     ap.add_argument("--timeout", type=float, default=60.0, help="simulated s after the goal (default 60)")
     ap.add_argument("--check", action="store_true",
-                    help="exit 1 unless the unified runs touch no 3D obstacle and the navigator's CPU on the "
-                         "unified scan is below the raw 3D mode's at every point count (the issue's other "
-                         "targets are reported, met or MISSED, as the demo reports OctoMap's)")
+                    help="exit 1 unless the runs meet the issue's targets they can decide: unified reached "
+                         "without a collision, its time to goal within 5 %% of raw 3D's, the lidar-only "
+                         "mode's miss on the table route, the navigator's and the whole system's CPU on "
+                         "the unified scan below raw 3D's (scripts/demo's threshold)")
     a = ap.parse_args(argv)
     points = a.points or (QUICK_POINTS if a.quick else POINTS)
     routes = a.routes or (("table",) if a.quick else ROUTES)
@@ -308,11 +329,7 @@ def main(argv=None):
     for name, t in res["targets"].items():
         print("target %-45s %s  %s" % (name, {True: "met", False: "MISSED", None: "n/a"}[t["met"]], t["figure"]))
     if a.check:
-        uni = [r for r in res["runs"] if r["mode"] == "unified"]
-        raw = {(r["route"], r["points_per_camera"]): r for r in res["runs"] if r["mode"] == "raw_3d"}
-        ok = bool(uni) and all(r["collisions_3d"] == 0 for r in uni) and all(
-            r["navigator_cpu_percent"] < raw[(r["route"], r["points_per_camera"])]["navigator_cpu_percent"]
-            for r in uni if (r["route"], r["points_per_camera"]) in raw)
-        print("check: %s" % ("passed" if ok else "FAILED"))
-        return 0 if ok else 1
+        failed = check(res)
+        print("check: %s" % ("passed" if not failed else "FAILED: " + ", ".join(failed)))
+        return 0 if not failed else 1
     return 0
