@@ -100,21 +100,21 @@ def test_targets_from_runs():
     assert not t["unified_reached_without_collision"]["met"]
 
 
-def test_the_check_requires_every_target_one_point_count_decides():
+def test_the_check_fails_on_a_3d_contact_or_cpu_and_reports_the_other_targets():
     runs = [row("unified", 50000, 15.0, 25.0, 20.5), row("raw_3d", 50000, 160.0, 160.0, 20.0),
             row("lidar_only", 50000, 7.0, 7.0, c3d=1)]
     assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == []
-    # Unified not reached: missed, and its time cannot be compared: missed too (all modes ran).
+    # Unified not reached: reported missed, but the check holds (no 3D contact, CPU below raw).
     runs[0].update(reached=False, time_to_goal_s=None)
-    assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == [
-        "unified_reached_without_collision", "unified_time_within_5_percent_of_raw_3d"]
-    # The lidar-only mode going round the table: its miss not shown.
-    runs[0].update(reached=True, time_to_goal_s=20.5)
-    runs[2]["collisions_3d"] = 0
-    assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == ["lidar_only_misses_3d_obstacle"]
-    # A sweep's targets are not checked (flatness, 300k), nor an undecided one whose mode did not run.
-    only = runs[:2]
-    assert navigation.check({"runs": only, "targets": navigation.targets(only)}) == []
+    res = navigation.targets(runs)
+    assert res["unified_reached_without_collision"]["met"] is False
+    assert navigation.check({"runs": runs, "targets": res}) == []
+    # A unified run touching a table top fails it, as does more navigator CPU than raw 3D.
+    runs[0]["collisions_3d"] = 1
+    assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == ["unified_no_3d_contact"]
+    runs[0]["collisions_3d"] = 0
+    runs[0]["navigator_cpu_percent"] = 170.0
+    assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == ["navigator_cpu_below_raw_table"]
 
 
 def test_a_short_closed_loop_run_end_to_end(tmp_path):
