@@ -74,10 +74,9 @@ void visitFields(P& p, V&& visit)
                   "top of the obstacle band, above the floor (may be `.inf`); `min_height < max_height`"));
   visit(p.hole_detection,
         ParamInfo("hole_detection", "", "points lower than `floor_height - hole_depth` become obstacles (rule 2)"));
-  visit(p.hole_depth,
-        ParamInfo("hole_depth", "m", "how far below the floor a point must be to be a hole, >= 0")
-          .atLeast(0.0)
-          .finiteOnly());
+  visit(p.hole_depth, ParamInfo("hole_depth", "m", "how far below the floor a point must be to be a hole, >= 0")
+                        .atLeast(0.0)
+                        .finiteOnly());
 }
 
 /// Geometry of the scan and the values it writes (REP 117).
@@ -119,8 +118,9 @@ void visitFields(P& p, V&& visit)
               "last beam; `angle_min < angle_max`, `angle_max - angle_min` <= 2 pi (a scan covers at most one turn)")
       .angleWithin(2.0 * M_PI)
       .shownAs("`pi`"));
-  visit(p.angle_increment,
-        ParamInfo("angle_increment", "rad", "beam spacing, > 0").above(0.0).finiteOnly().shownAs("`pi/720` (0.25 deg)"));
+  visit(
+    p.angle_increment,
+    ParamInfo("angle_increment", "rad", "beam spacing, > 0").above(0.0).finiteOnly().shownAs("`pi/720` (0.25 deg)"));
   visit(p.range_min,
         ParamInfo("range_min", "m",
                   "smallest planar distance (from `reference_frame`'s origin) the scan reports, >= 0; a beam whose "

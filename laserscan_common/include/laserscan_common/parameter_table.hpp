@@ -34,10 +34,10 @@ struct ParamInfo
   const char* meaning;
   double lo = -std::numeric_limits<double>::infinity();
   double hi = std::numeric_limits<double>::infinity();
-  bool lo_open = false;  ///< lo itself is refused
-  bool finite = false;   ///< +-inf is refused too
-  bool nonempty = false;  ///< a string: not ""; a polygon: not [] (else [] is allowed: none)
-  bool frame_id = false;  ///< a string: a tf2 frame id (no leading '/')
+  bool lo_open = false;           ///< lo itself is refused
+  bool finite = false;            ///< +-inf is refused too
+  bool nonempty = false;          ///< a string: not ""; a polygon: not [] (else [] is allowed: none)
+  bool frame_id = false;          ///< a string: a tf2 frame id (no leading '/')
   double angle = 0.0;             ///< > 0: an angle within [-angle, angle] (+ the nodes' 1e-6 tolerance)
   const char* default_text = "";  ///< the README's default when the value alone does not say it
 
@@ -144,8 +144,8 @@ inline std::string limitFault(double value, const ParamInfo& info)
   if (above_lo && value <= info.hi)
     return "";
   if (has_lo && has_hi)
-    return "must be within " + std::string(info.lo_open ? "(" : "[") + limitText(info.lo) + ", " +
-           limitText(info.hi) + "]" + unit + got;
+    return "must be within " + std::string(info.lo_open ? "(" : "[") + limitText(info.lo) + ", " + limitText(info.hi) +
+           "]" + unit + got;
   if (has_lo)
     return std::string(info.lo_open ? "must be > " : "must be >= ") + limitText(info.lo) + unit + got;
   return "must be <= " + limitText(info.hi) + unit + got;

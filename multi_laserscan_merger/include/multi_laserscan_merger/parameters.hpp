@@ -66,11 +66,10 @@ void visitFields(P& p, V&& visit)
         ParamInfo("angle_max", "rad", "last output beam; `angle_min < angle_max`, `angle_max - angle_min` <= 2 pi")
           .angleWithin(2.0 * kPi)
           .shownAs("`pi`"));
-  visit(p.angle_increment,
-        ParamInfo("angle_increment", "rad", "output resolution (0.25 degree), > 0")
-          .above(0.0)
-          .finiteOnly()
-          .shownAs("`pi/720`"));
+  visit(p.angle_increment, ParamInfo("angle_increment", "rad", "output resolution (0.25 degree), > 0")
+                             .above(0.0)
+                             .finiteOnly()
+                             .shownAs("`pi/720`"));
   visit(p.range_min,
         ParamInfo("range_min", "m",
                   "fused ranges closer than this (planar, from the frame's origin) become -Inf (too close), >= 0")
