@@ -161,7 +161,11 @@ std::string mrptConfig(const NavigatorParameters& p)
     for (std::size_t i = 0; i < p.shape_3d.size(); ++i)
       ini << "LEVEL" << i + 1 << "_HEIGHT = " << p.shape_3d[i].height << "\n"
           << "LEVEL" << i + 1 << "_VECTORX = " << joined(p.shape_3d[i].polygon, 0) << "\n"
-          << "LEVEL" << i + 1 << "_VECTORY = " << joined(p.shape_3d[i].polygon, 1) << "\n";
+          << "LEVEL" << i + 1 << "_VECTORY = " << joined(p.shape_3d[i].polygon, 1)
+          << "\n"
+          // CPTG_Holo_Blend takes each level as a circle: its polygon's circumscribed one (MRPT's
+          // default, 0.5 m, would judge the robot wider than it is).
+          << "LEVEL" << i + 1 << "_RADIUS = " << circumradius(p.shape_3d[i].polygon) << "\n";
   }
   else
   {
