@@ -46,10 +46,23 @@ def test_check_config_names_each_bad_navigator_value(key, value, says):
 
 
 def test_each_mode_listens_to_its_inputs():
-    assert navigation.navigator_config("unified")["scan_topics"] == ["/merged_scan"]
+    # unified: the raw modes' own sensors (lidars + cameras, as the paper's experiment); the arcs
+    # only in unified_sonar.
+    assert navigation.navigator_config("unified")["scan_topics"] == ["/slam_scan"]
+    assert navigation.navigator_config("unified_sonar")["scan_topics"] == ["/merged_scan"]
+    with open(os.path.join(navigation.REPO, "config", "sim_robot", "slam_scan.yaml")) as f:
+        slam = yaml.safe_load(f)
+    assert sorted(s["name"] for s in slam["sources"]) == ["camera_left", "camera_right", "lidar_front", "lidar_rear"]
     raw = navigation.navigator_config("raw_3d")
     assert raw["mode"] == "3d" and raw["cloud_topics"] and raw["scan_topics"]
     assert config_check.check_data(raw, kind="navigator") == []
+
+
+def test_the_experiments_pipeline_waits_for_every_source_of_a_step_in_both_mergers(tmp_path):
+    cfg = navigation.pipeline_config(str(tmp_path))
+    for name in ("merged_scan.yaml", "slam_scan.yaml"):
+        with open(os.path.join(cfg, name)) as f:
+            assert yaml.safe_load(f)["sync_window"] == 1.0, name
 
 
 def test_the_demo_summary_reports_each_run_and_each_target_met_or_missed():
