@@ -97,12 +97,18 @@ class DepthImageTest(unittest.TestCase):
         info = Scenario.camera_info(self.cam, img.header, CameraInfo)
         return img, info
 
-    def send(self, img, info, rel):
-        self.send_tilt(rel, img.header.stamp)
+    def send(self, img, info, rel, tilt_late=False):
+        """tilt_late: the camera's transform 0.1 s after the frame (within transform_tolerance): the
+        frame waits for it, as a cloud does."""
+        if not tilt_late:
+            self.send_tilt(rel, img.header.stamp)
         if img is not None:
             self.image_pub.publish(img)
         if info is not None:
             self.info_pub.publish(info)
+        if tilt_late:
+            rospy.sleep(0.1)
+            self.send_tilt(rel, img.header.stamp)
 
     def test_same_scan_as_point_cloud_xyz_while_tilting_and_bad_frames(self):
         stamp = rospy.Time.now()
@@ -110,7 +116,7 @@ class DepthImageTest(unittest.TestCase):
         for k, rel in enumerate(TIMES):
             stamp = max(rospy.Time.now(), stamp + rospy.Duration(0.05))
             img, info = self.frame(rel, stamp)
-            self.send(img, info, rel)
+            self.send(img, info, rel, tilt_late=(k == 2))
             from_image = self.wait_for("image_scan", stamp)
             from_cloud = self.wait_for("cloud_scan", stamp)
             self.assertIsNotNone(from_image, f"no scan from the image at t = {rel}")
