@@ -124,6 +124,7 @@ ReactiveNavigatorRos::ReactiveNavigatorRos(ros::NodeHandle nh, ros::NodeHandle p
   cmd_pub_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 10);
   state_pub_ = private_nh_.advertise<std_msgs::String>("state", 1, true);
   step_pub_ = private_nh_.advertise<geometry_msgs::TwistStamped>("step", 10);
+  plan_pub_ = private_nh_.advertise<nav_msgs::Path>("plan", 1, true);
   goal_sub_ = nh_.subscribe("move_base_simple/goal", 5, &ReactiveNavigatorRos::goalArrived, this);
 
   for (const auto& topic : parameters_.scan_topics)
@@ -448,6 +449,7 @@ void ReactiveNavigatorRos::runStep(const ros::Time& time, bool latest_pose)
   cmd_pub_.publish(step.twist);
   step_pub_.publish(step);
   publishState();
+  publishPlan(time);
   cpu_sum_ += cpu;
   cpu_max_ = std::max(cpu_max_, cpu);
   points_sum_ += core_->lastObstaclePoints();
@@ -455,6 +457,26 @@ void ReactiveNavigatorRos::runStep(const ros::Time& time, bool latest_pose)
   remembered_points_sum_ += core_->lastRememberedPoints();
   ++steps_;
   ++steps_total_;
+}
+
+void ReactiveNavigatorRos::publishPlan(const ros::Time& time)
+{
+  const std::vector<Eigen::Vector2d>& path = core_->plannedPath();
+  if (path == published_plan_)
+    return;
+  published_plan_ = path;
+  nav_msgs::Path message;
+  message.header.stamp = time;
+  message.header.frame_id = parameters_.odom_frame;
+  message.poses.resize(path.size());
+  for (std::size_t i = 0; i < path.size(); ++i)
+  {
+    message.poses[i].header = message.header;
+    message.poses[i].pose.position.x = path[i].x();
+    message.poses[i].pose.position.y = path[i].y();
+    message.poses[i].pose.orientation.w = 1.0;
+  }
+  plan_pub_.publish(message);
 }
 
 void ReactiveNavigatorRos::publishState()

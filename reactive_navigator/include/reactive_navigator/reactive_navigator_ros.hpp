@@ -11,6 +11,7 @@
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/PoseStamped.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -57,7 +58,8 @@ private:
   void collectObstacles(const ros::Time& time, bool up_to_time);
   void runStep(const ros::Time& time, bool latest_pose);
   ros::Time onGrid(const ros::Time& time, long& index) const;
-  void publishState();  // ~state when it changed (latched)
+  void publishState();                      // ~state when it changed (latched)
+  void publishPlan(const ros::Time& time);  // ~plan when the planner's path changed (latched)
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   void warn(const std::string& kind, const std::string& text);
 
@@ -70,7 +72,8 @@ private:
   std::unique_ptr<laserscan_common::TransformReader> tf_reader_;
   ros::Subscriber goal_sub_;
   std::vector<ros::Subscriber> obstacle_subs_;
-  ros::Publisher cmd_pub_, state_pub_, step_pub_;
+  ros::Publisher cmd_pub_, state_pub_, step_pub_, plan_pub_;
+  std::vector<Eigen::Vector2d> published_plan_;
   ros::Timer step_timer_;
   ros::WallTimer watchdog_timer_, retry_timer_;
   laserscan_common::NodeDiagnostics diagnostics_;

@@ -5,7 +5,7 @@ Drives the navigator in lockstep on simulated time, as the closed-loop simulator
 step time t it publishes /clock = t, the robot's tf at t, a LaserScan from a lidar 0.2 m above
 base_link and a PointCloud2 from a camera 1 m up looking straight down, both stamped t, and waits
 for ~step stamped t. Checks: a goal in gives cmd_vel towards it (and ~step carries the same
-command), a wall in the scan stops the forward motion, and the cloud's points go through tf (only
+command) and ~plan the planner's path to it, a wall in the scan stops the forward motion, and the cloud's points go through tf (only
 those the camera sees inside the height band count as obstacles, /diagnostics says how many)."""
 import math
 import threading
@@ -17,6 +17,7 @@ import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, TransformStamped, Twist, TwistStamped
+from nav_msgs.msg import Path
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 from std_msgs.msg import String
@@ -76,7 +77,7 @@ class NavigatorTest(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('navigator_test')
         cls.cond = threading.Condition()
-        cls.steps, cls.cmds, cls.states, cls.diagnostics = {}, [], [], []
+        cls.steps, cls.cmds, cls.states, cls.diagnostics, cls.plans = {}, [], [], [], []
         cls.clock = rospy.Publisher('/clock', Clock, queue_size=10)
         cls.tf = rospy.Publisher('/tf', TFMessage, queue_size=10)
         cls.tf_static = rospy.Publisher('/tf_static', TFMessage, queue_size=1, latch=True)
@@ -87,6 +88,7 @@ class NavigatorTest(unittest.TestCase):
         rospy.Subscriber('cmd_vel', Twist, cls.keep('cmds'))
         rospy.Subscriber('navigator/state', String, cls.keep('states'))
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.keep('diagnostics'))
+        rospy.Subscriber('navigator/plan', Path, cls.keep('plans'))
         cls.t = 1.0
         cls.publish_clock(cls.t)
         # The camera 1 m above base_link, turned 180 degrees about x: its z axis points down.
@@ -153,6 +155,13 @@ class NavigatorTest(unittest.TestCase):
         self.assertLess(abs(step.twist.linear.y), 0.5 * step.twist.linear.x)
         # cmd_vel carries the same command as ~step.
         self.wait_for(lambda: self.cmds and self.cmds[-1].linear.x == step.twist.linear.x, 'cmd_vel')
+        # ~plan: the planner's path in the odometry frame, from the robot to the goal.
+        self.wait_for(lambda: self.plans and self.plans[-1].poses, '~plan')
+        plan = self.plans[-1]
+        self.assertEqual(plan.header.frame_id, 'odom')
+        first, last = plan.poses[0].pose.position, plan.poses[-1].pose.position
+        self.assertLess(math.hypot(first.x, first.y), 0.2)
+        self.assertLess(math.hypot(last.x - 3.0, last.y), 0.2)
 
     def test_b_a_wall_in_the_scan_stops_the_forward_motion(self):
         self.send_goal(3.0, 0.0)
