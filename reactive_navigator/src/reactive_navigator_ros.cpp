@@ -9,6 +9,7 @@
 #include <std_msgs/String.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include "laserscan_common/cloud_view.hpp"
 #include "laserscan_common/message_checks.hpp"
 #include "laserscan_common/parameter_reader.hpp"
 #include "reactive_navigator/obstacle_points.hpp"
@@ -253,20 +254,19 @@ void ReactiveNavigatorRos::cloudArrived(std::size_t index, const sensor_msgs::Po
   {
     std::lock_guard<std::mutex> lock(mutex_);
     Source& source = sources_[index];
-    int found = 0;
-    for (const auto& f : cloud->fields)
-      if ((f.name == "x" || f.name == "y" || f.name == "z") && f.datatype == sensor_msgs::PointField::FLOAT32 &&
-          f.offset + 4 <= cloud->point_step)
-        ++found;
-    const std::size_t count = static_cast<std::size_t>(cloud->width) * cloud->height;
-    if (found != 3 || cloud->is_bigendian || count * cloud->point_step > cloud->data.size())
+    // The converters' checks (laserscan_common::makeCloudView): x/y/z float32 or float64,
+    // little-endian, inside point_step, rows row_step apart, the data exactly row_step x height.
+    laserscan_common::CloudView view;
+    const std::string reason = laserscan_common::makeCloudView(laserscan_common::cloudLayoutOf(*cloud),
+                                                               cloud->data.data(), cloud->data.size(), "", view);
+    if (!reason.empty())
     {
-      warn(source.topic, "cloud on '" + source.topic +
-                           "' ignored: it needs float32 fields x, y, z (little-endian) and data for width x "
-                           "height points");
+      // Throttled per topic and kind of defect (the reason without its numbers).
+      warn("malformed " + source.topic + ": " + laserscan_common::faultKind(reason),
+           "dropped a malformed cloud on '" + source.topic + "' (frame '" + cloud->header.frame_id + "'): " + reason);
       return;
     }
-    source.clouds.push_back(cloud);
+    source.clouds.push_back(CloudMessage{ cloud, view });
     if (source.clouds.size() > kKeptMessages)
       source.clouds.pop_front();
     source.newest_stamp = std::max(source.newest_stamp, cloud->header.stamp);
@@ -371,19 +371,26 @@ void ReactiveNavigatorRos::collectObstacles(const ros::Time& time, bool up_to_ti
   for (auto& s : sources_)
   {
     // The newest message stamped up to the step's time (or the newest of all).
-    auto pick = [&](const auto& queue) -> decltype(queue.back().get()) {
+    auto pick = [&](const auto& queue, const auto& message_of) -> decltype(&queue.back()) {
       for (auto it = queue.rbegin(); it != queue.rend(); ++it)
-        if (!up_to_time || (*it)->header.stamp.toSec() <= time.toSec() + kStampEpsilon)
-          return it->get();
+        if (!up_to_time || message_of(*it).header.stamp.toSec() <= time.toSec() + kStampEpsilon)
+          return &*it;
       return nullptr;
     };
     const std_msgs::Header* header = nullptr;
     const sensor_msgs::LaserScan* scan = nullptr;
-    const sensor_msgs::PointCloud2* cloud = nullptr;
+    const CloudMessage* cloud = nullptr;
     if (s.is_cloud)
-      header = (cloud = pick(s.clouds)) ? &cloud->header : nullptr;
+    {
+      cloud = pick(s.clouds, [](const CloudMessage& c) -> const sensor_msgs::PointCloud2& { return *c.message; });
+      header = cloud ? &cloud->message->header : nullptr;
+    }
     else
-      header = (scan = pick(s.scans)) ? &scan->header : nullptr;
+    {
+      const auto* newest = pick(s.scans, [](const auto& m) -> const sensor_msgs::LaserScan& { return *m; });
+      scan = newest ? newest->get() : nullptr;
+      header = scan ? &scan->header : nullptr;
+    }
     if (header == nullptr)
       continue;
     Eigen::Isometry3d sensor_to_robot;
@@ -407,18 +414,8 @@ void ReactiveNavigatorRos::collectObstacles(const ros::Time& time, bool up_to_ti
                        sensor_to_robot, points_);
     else
     {
-      CloudView view;
-      view.data = cloud->data.data();
-      view.count = static_cast<std::size_t>(cloud->width) * cloud->height;
-      view.point_step = cloud->point_step;
-      for (const auto& f : cloud->fields)
-        if (f.name == "x")
-          view.offset_x = f.offset;
-        else if (f.name == "y")
-          view.offset_y = f.offset;
-        else if (f.name == "z")
-          view.offset_z = f.offset;
-      appendCloudPoints(view, sensor_to_robot, parameters_.height_band_min, parameters_.height_band_max, points_);
+      appendCloudPoints(cloud->view, sensor_to_robot, parameters_.height_band_min, parameters_.height_band_max,
+                        points_);
     }
   }
 }
