@@ -55,7 +55,7 @@ constexpr double kGoalTransformWait = 2.0;  // wall s a goal waits for its trans
 
 void readParameters(laserscan_common::ParameterReader& reader, NavigatorParameters& p, NodeParameters& n)
 {
-  reader.read("mode", p.mode);
+  reader.readFields(p);
   XmlRpcValue v;
   if (reader.readRaw("footprint", v))
     p.footprint = toPolygon(v, "footprint");
@@ -74,30 +74,9 @@ void readParameters(laserscan_common::ParameterReader& reader, NavigatorParamete
         ShapeLevel{ toNumber(level["height"], name + ".height"), toPolygon(level["polygon"], name + ".polygon") });
     }
   }
-  reader.read("max_linear_speed", p.max_linear_speed);
-  reader.read("max_angular_speed", p.max_angular_speed);
-  reader.read("linear_acceleration", p.linear_acceleration);
-  reader.read("goal_tolerance", p.goal_tolerance);
-  reader.read("lookahead", p.lookahead);
-  reader.read("path_count", p.path_count);
-  reader.read("blocked_timeout", p.blocked_timeout);
-  reader.read("self_padding", p.self_padding);
-  reader.read("obstacle_memory", p.obstacle_memory);
-  // Global planner.
-  reader.read("planner", p.planner);
-  reader.read("planner_rate", p.planner_rate);
-  reader.read("planner_resolution", p.planner_resolution);
-  reader.read("planner_memory", p.planner_memory);
-  reader.read("planner_inflation", p.planner_inflation);
-  reader.read("planner_clearance", p.planner_clearance);
-  reader.read("planner_margin", p.planner_margin);
-  reader.read("carrot_distance", p.carrot_distance);
   p.validate();
 
-  reader.read("scan_topics", n.scan_topics);
-  reader.read("cloud_topics", n.cloud_topics);
-  reader.read("odom_frame", n.odom_frame);
-  reader.read("robot_frame", n.robot_frame);
+  reader.readFields(n);
   if (reader.readRaw("height_band", v))
   {
     if (v.getType() != XmlRpcValue::TypeArray || v.size() != 2)
@@ -105,9 +84,6 @@ void readParameters(laserscan_common::ParameterReader& reader, NavigatorParamete
     n.height_band_min = toNumber(v[0], "height_band[0]");
     n.height_band_max = toNumber(v[1], "height_band[1]");
   }
-  reader.read("control_rate", n.control_rate);
-  reader.read("lockstep", n.lockstep);
-  reader.read("lockstep_timeout", n.lockstep_timeout);
   n.validate();
   reader.warnUnknown();
 }

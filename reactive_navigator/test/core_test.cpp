@@ -329,6 +329,40 @@ void expectError(const Parameters& p, const std::string& name)
   }
 }
 
+TEST(Parameters, ALimitIsTheTableLinesInItsWords)
+{
+  // The limits are the field tables' (checkLimits, the words check_config writes too).
+  NavigatorParameters p;
+  p.max_linear_speed = 0.0;
+  try
+  {
+    p.validate();
+    ADD_FAILURE() << "max_linear_speed 0 passed";
+  }
+  catch (const ParameterError& e)
+  {
+    EXPECT_STREQ(e.what(), "max_linear_speed: must be > 0 m/s, got 0");
+  }
+  p = NavigatorParameters{};
+  p.path_count = 1002;
+  EXPECT_THROW(p.validate(), ParameterError);
+  NodeParameters n;
+  n.scan_topics = { "scan" };
+  n.odom_frame.clear();
+  try
+  {
+    n.validate();
+    ADD_FAILURE() << "an empty odom_frame passed";
+  }
+  catch (const ParameterError& e)
+  {
+    EXPECT_STREQ(e.what(), "odom_frame: must not be empty");
+  }
+  const std::vector<std::string> names = laserscan_common::fieldNames(NodeParameters{});
+  EXPECT_EQ(names.front(), "scan_topics");
+  EXPECT_EQ(laserscan_common::fieldNames(NavigatorParameters{}).size(), 18u);
+}
+
 TEST(Parameters, EachBadValueNamesItsParameter)
 {
   NavigatorParameters p;
