@@ -210,3 +210,62 @@ def test_range_verdicts_agree(name, value):
     core_ok = range_core_accepts(name, value)
     assert checker_ok == core_ok, "%s = %r: the checker %s it, the range core %s it" % (
         name, value, "accepts" if checker_ok else "rejects", "accepts" if core_ok else "rejects")
+
+
+# reactive_navigator: its node's and its core's parameters (height_band, footprint and shape_3d,
+# read outside the tables by the ROS glue, are compared with the node in test_unknown_parameters.py
+# and test_navigation.py).
+NAVIGATOR_ROS_ONLY = {"height_band", "footprint", "shape_3d"}
+
+
+def navigator_structs():
+    import reactive_navigator_core as navigator_core  # (built module: source devel/setup.bash)
+    node = navigator_core.NodeParameters()
+    node.scan_topics = ["scan"]
+    return navigator_core.NavigatorParameters(), node
+
+
+def test_navigator_schema_has_the_core_defaults():
+    core, node = navigator_structs()
+    node.scan_topics = []
+    for name, key in cc.NAVIGATOR.items():
+        if name in NAVIGATOR_ROS_ONLY:
+            continue
+        struct = core if hasattr(core, name) else node
+        assert hasattr(struct, name), "checker knows '%s', the navigator does not" % name
+        assert same(key.default, getattr(struct, name)), \
+            "default of '%s': checker %r, core %r" % (name, key.default, getattr(struct, name))
+
+
+NAVIGATOR_CHANGES = [
+    ("mode", "3d"), ("mode", "2.5d"), ("mode", ""), ("scan_topics", []), ("scan_topics", ["a", "a"]),
+    ("scan_topics", ["a", "b"]), ("cloud_topics", ["scan"]), ("cloud_topics", [""]), ("odom_frame", ""),
+    ("robot_frame", ""), ("robot_frame", "odom"), ("robot_frame", "base_footprint"),
+    ("control_rate", 0.0), ("control_rate", math.inf), ("control_rate", math.nan), ("control_rate", 1e-3),
+    ("lockstep_timeout", 0.0), ("lockstep_timeout", 0.5), ("max_linear_speed", 0.0), ("max_linear_speed", -1.0),
+    ("max_linear_speed", math.inf), ("max_angular_speed", 0.0), ("linear_acceleration", 0.0),
+    ("goal_tolerance", 0.0), ("lookahead", math.inf), ("path_count", 2), ("path_count", 3), ("path_count", 1001),
+    ("path_count", 1002), ("blocked_timeout", 0.0), ("self_padding", 0.0), ("self_padding", -0.01),
+    ("self_padding", math.inf), ("obstacle_memory", 0.0), ("obstacle_memory", -1.0), ("planner_rate", 0.0),
+    ("planner_resolution", 1.0), ("planner_resolution", 1.5), ("planner_resolution", 0.0),
+    ("planner_memory", 0.0), ("planner_inflation", 0.0), ("planner_inflation", -0.1), ("planner_clearance", -0.1),
+    ("planner_clearance", math.nan), ("planner_margin", 0.0), ("carrot_distance", 0.0), ("carrot_distance", 0.5),
+]
+
+
+@pytest.mark.parametrize("name,value", NAVIGATOR_CHANGES)
+def test_navigator_verdicts_and_reasons_agree(name, value):
+    problems = cc.check_navigator({"scan_topics": ["scan"], name: value})
+    core, node = navigator_structs()
+    setattr(core if hasattr(core, name) else node, name, value)
+    reason = None
+    try:
+        core.validate()
+        node.validate()
+    except ValueError as e:
+        reason = str(e)
+    assert (not problems) == (reason is None), "%s = %r: the checker says %s, the navigator %s" % (
+        name, value, problems, reason)
+    # A limit of the table is written alike (laserscan_common's limitFault and check_value).
+    if reason is not None and "must be" in reason and any(c in reason for c in "<>[]("):
+        assert reason in problems, (reason, problems)

@@ -26,14 +26,21 @@ def test_checked_in_export_is_the_tables_of_the_built_modules():
 
 def test_check_config_schema_is_the_export():
     tables = pt.export()
-    for kind, schema in (("converter", cc.CONVERTER), ("range", cc.RANGE), ("merger", cc.MERGER),
-                         ("source", cc.SOURCE)):
+    # The navigator's topic lists are the checker's topic_list (no empty name, none twice).
+    topic_lists = {"scan_topics", "cloud_topics"}
+    for kind, schema, outside in (("converter", cc.CONVERTER, {"self_filter"}), ("range", cc.RANGE, set()),
+                                  ("merger", cc.MERGER, {"self_filter", "sources"}), ("source", cc.SOURCE, set()),
+                                  ("navigator", cc.NAVIGATOR, cc.NAVIGATOR_OUTSIDE_TABLES)):
         names = [f["name"] for f in tables[kind]]
         # Only the blocks read outside the tables are the checker's own.
-        assert set(schema) - set(names) <= {"self_filter", "sources"}, kind
+        assert set(schema) - set(names) == outside, kind
         for f in tables[kind]:
             key = schema[f["name"]]
-            assert (key.kind, key.unit, key.doc) == (cc._KINDS[f["type"]], f["unit"], f["meaning"]), f["name"]
+            wanted = "topic_list" if kind == "navigator" and f["name"] in topic_lists else cc._KINDS[f["type"]]
+            assert (key.kind, key.unit, key.doc) == (wanted, f["unit"], f["meaning"]), f["name"]
+            assert (key.lo, key.hi, key.lo_open, key.finite, key.nonempty) == (
+                None if f["lo"] == -math.inf else f["lo"], None if f["hi"] == math.inf else f["hi"], f["lo_open"],
+                f["finite"], f["nonempty"]), f["name"]
             assert key.default == f["default"] or (
                 isinstance(key.default, float) and math.isclose(key.default, f["default"])), f["name"]
 

@@ -8,7 +8,6 @@
 #include <boost/make_shared.hpp>
 #include <cmath>
 #include <cstring>
-#include <iterator>
 #include <stdexcept>
 #include <type_traits>
 
@@ -291,13 +290,8 @@ void DepthFilterScanConverter::dropMalformed(const std::string& reason, const st
   // A new kind of defect is reported at once, the same one again at most every 5 s. Reasons
   // carry numbers (stamps, sizes) that change from message to message: the kind is the text
   // without them, or a stream of empty frame_ids would be warned about once per message.
-  const auto kind = [](const std::string& text) {
-    std::string k;
-    std::copy_if(text.begin(), text.end(), std::back_inserter(k), [](char c) { return c < '0' || c > '9'; });
-    return k;
-  };
   last_malformed_reason_ = reason;
-  if (warnings_.due("malformed: " + kind(reason)))
+  if (warnings_.due("malformed: " + laserscan_common::faultKind(reason)))
     NODE_WARN(private_nh_.getNamespace(), "dropped a malformed %s on %s (frame '%s'): %s",
               input_ == DepthInput::Cloud ? "cloud" : "depth image", input_topic_.c_str(), frame_id.c_str(),
               reason.c_str());

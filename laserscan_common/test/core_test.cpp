@@ -335,6 +335,15 @@ TEST(WarningThrottle, BoundedWhenKindsNeverRepeat)
   EXPECT_TRUE(throttle.due("frame 0"));
 }
 
+TEST(WarningThrottle, AFaultKindIsItsTextWithoutNumbers)
+{
+  // Two clouds with the same defect but other sizes are one kind, another defect is another.
+  EXPECT_EQ(lc::faultKind("row_step 599 is smaller than width*point_step 600"),
+            lc::faultKind("row_step 1279 is smaller than width*point_step 1280"));
+  EXPECT_EQ(lc::faultKind("empty frame_id (stamp 12.000000000)"), "empty frame_id (stamp .)");
+  EXPECT_NE(lc::faultKind("field 'x' is missing"), lc::faultKind("field 'z' is missing"));
+}
+
 int main(int argc, char** argv)
 {
   testing::InitGoogleTest(&argc, argv);

@@ -7,6 +7,43 @@
 namespace reactive_navigator
 {
 
+namespace
+{
+
+// The cloud's x, y, z stored as T (float or double), row by row (rows may be padded: row_step),
+// transformed in T's precision. A float64 point kept must fit a float (a cast out of range is
+// undefined): one beyond that is no obstacle a robot meets.
+template <typename T>
+std::size_t appendPoints(const laserscan_common::CloudView& cloud, const Eigen::Isometry3d& sensor_to_robot,
+                         double band_min, double band_max, ObstaclePoints& out)
+{
+  using Vector = Eigen::Matrix<T, 3, 1>;
+  const std::size_t before = out.size();
+  const Eigen::Transform<T, 3, Eigen::Isometry> transform = sensor_to_robot.cast<T>();
+  const auto lo = static_cast<T>(band_min);
+  const auto hi = static_cast<T>(band_max);
+  const auto largest = static_cast<T>(std::numeric_limits<float>::max());
+  const auto load = [](const std::uint8_t* p) {
+    T value;
+    std::memcpy(&value, p, sizeof value);
+    return value;
+  };
+  for (std::size_t row = 0; row < cloud.height; ++row)
+    for (std::size_t column = 0; column < cloud.width; ++column)
+    {
+      const std::uint8_t* point = cloud.point(row, column);
+      const Vector p(load(point + cloud.x_offset), load(point + cloud.y_offset), load(point + cloud.z_offset));
+      if (!p.allFinite())
+        continue;
+      const Vector q = transform * p;
+      if (q.z() >= lo && q.z() <= hi && q.cwiseAbs().maxCoeff() <= largest)
+        out.push_back(q.template cast<float>());
+    }
+  return out.size() - before;
+}
+
+}  // namespace
+
 std::size_t appendScanPoints(const ScanView& scan, const Eigen::Isometry3d& sensor_to_robot, ObstaclePoints& out)
 {
   const std::size_t before = out.size();
@@ -27,27 +64,12 @@ std::size_t appendScanPoints(const ScanView& scan, const Eigen::Isometry3d& sens
   return out.size() - before;
 }
 
-std::size_t appendCloudPoints(const CloudView& cloud, const Eigen::Isometry3d& sensor_to_robot, double band_min,
-                              double band_max, ObstaclePoints& out)
+std::size_t appendCloudPoints(const laserscan_common::CloudView& cloud, const Eigen::Isometry3d& sensor_to_robot,
+                              double band_min, double band_max, ObstaclePoints& out)
 {
-  const std::size_t before = out.size();
-  const Eigen::Isometry3f transform = sensor_to_robot.cast<float>();
-  const auto lo = static_cast<float>(band_min);
-  const auto hi = static_cast<float>(band_max);
-  for (std::size_t i = 0; i < cloud.count; ++i)
-  {
-    const std::uint8_t* point = cloud.data + i * cloud.point_step;
-    Eigen::Vector3f p;
-    std::memcpy(&p.x(), point + cloud.offset_x, sizeof(float));
-    std::memcpy(&p.y(), point + cloud.offset_y, sizeof(float));
-    std::memcpy(&p.z(), point + cloud.offset_z, sizeof(float));
-    if (!p.allFinite())
-      continue;
-    const Eigen::Vector3f q = transform * p;
-    if (q.z() >= lo && q.z() <= hi)
-      out.push_back(q);
-  }
-  return out.size() - before;
+  if (cloud.xyz_type == laserscan_common::FieldType::Float64)
+    return appendPoints<double>(cloud, sensor_to_robot, band_min, band_max, out);
+  return appendPoints<float>(cloud, sensor_to_robot, band_min, band_max, out);
 }
 
 }  // namespace reactive_navigator

@@ -9,12 +9,6 @@ namespace reactive_navigator
 namespace
 {
 
-void requirePositive(const char* name, double value)
-{
-  if (!std::isfinite(value) || value <= 0.0)
-    throw ParameterError(name, "must be a finite number > 0");
-}
-
 // Twice the signed area (shoelace formula): zero for a degenerate polygon.
 double doubleArea(const Polygon& polygon)
 {
@@ -59,6 +53,7 @@ std::vector<ShapeLevel> paperRobotShape3d()
 
 void NavigatorParameters::validate() const
 {
+  laserscan_common::checkLimits(*this);
   if (mode != "2d" && mode != "3d")
     throw ParameterError("mode", "must be '2d' or '3d', not '" + mode + "'");
   requirePolygon("footprint", footprint);
@@ -71,34 +66,11 @@ void NavigatorParameters::validate() const
       throw ParameterError(name + ".height", "must be a finite number > 0");
     requirePolygon(name + ".polygon", shape_3d[i].polygon);
   }
-  requirePositive("max_linear_speed", max_linear_speed);
-  requirePositive("max_angular_speed", max_angular_speed);
-  requirePositive("linear_acceleration", linear_acceleration);
-  requirePositive("goal_tolerance", goal_tolerance);
-  requirePositive("lookahead", lookahead);
-  requirePositive("blocked_timeout", blocked_timeout);
-  if (!std::isfinite(self_padding) || self_padding < 0.0)
-    throw ParameterError("self_padding", "must be a finite number >= 0");
-  if (!std::isfinite(obstacle_memory) || obstacle_memory < 0.0)
-    throw ParameterError("obstacle_memory", "must be a finite number >= 0 (s; 0 = no memory)");
-  if (path_count < 3 || path_count > 1001)
-    throw ParameterError("path_count", "must be within [3, 1001]");
-  // Global planner.
-  requirePositive("planner_rate", planner_rate);
-  requirePositive("planner_resolution", planner_resolution);
-  if (planner_resolution > 1.0)
-    throw ParameterError("planner_resolution", "must be at most 1 m (the cell must resolve a passage)");
-  requirePositive("planner_memory", planner_memory);
-  if (!std::isfinite(planner_inflation) || planner_inflation < 0.0)
-    throw ParameterError("planner_inflation", "must be a finite number >= 0");
-  if (!std::isfinite(planner_clearance) || planner_clearance < 0.0)
-    throw ParameterError("planner_clearance", "must be a finite number >= 0");
-  requirePositive("planner_margin", planner_margin);
-  requirePositive("carrot_distance", carrot_distance);
 }
 
 void NodeParameters::validate() const
 {
+  laserscan_common::checkLimits(*this);
   if (scan_topics.empty() && cloud_topics.empty())
     throw ParameterError("scan_topics", "no obstacle source: give scan_topics and/or cloud_topics");
   std::set<std::string> seen;
@@ -111,14 +83,10 @@ void NodeParameters::validate() const
       if (!seen.insert(topic).second)
         throw ParameterError(name, "topic '" + topic + "' is listed twice");
     }
-  if (odom_frame.empty())
-    throw ParameterError("odom_frame", "must not be empty");
-  if (robot_frame.empty() || robot_frame == odom_frame)
-    throw ParameterError("robot_frame", "must be non-empty and differ from odom_frame");
+  if (robot_frame == odom_frame)
+    throw ParameterError("robot_frame", "must differ from odom_frame");
   if (!std::isfinite(height_band_min) || !std::isfinite(height_band_max) || height_band_min >= height_band_max)
     throw ParameterError("height_band", "must be [min, max] with finite min < max (m, robot frame)");
-  requirePositive("control_rate", control_rate);
-  requirePositive("lockstep_timeout", lockstep_timeout);
 }
 
 }  // namespace reactive_navigator

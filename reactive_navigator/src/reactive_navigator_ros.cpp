@@ -9,6 +9,7 @@
 #include <std_msgs/String.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include "laserscan_common/cloud_view.hpp"
 #include "laserscan_common/message_checks.hpp"
 #include "laserscan_common/parameter_reader.hpp"
 #include "reactive_navigator/obstacle_points.hpp"
@@ -54,7 +55,7 @@ constexpr double kGoalTransformWait = 2.0;  // wall s a goal waits for its trans
 
 void readParameters(laserscan_common::ParameterReader& reader, NavigatorParameters& p, NodeParameters& n)
 {
-  reader.read("mode", p.mode);
+  reader.readFields(p);
   XmlRpcValue v;
   if (reader.readRaw("footprint", v))
     p.footprint = toPolygon(v, "footprint");
@@ -73,30 +74,9 @@ void readParameters(laserscan_common::ParameterReader& reader, NavigatorParamete
         ShapeLevel{ toNumber(level["height"], name + ".height"), toPolygon(level["polygon"], name + ".polygon") });
     }
   }
-  reader.read("max_linear_speed", p.max_linear_speed);
-  reader.read("max_angular_speed", p.max_angular_speed);
-  reader.read("linear_acceleration", p.linear_acceleration);
-  reader.read("goal_tolerance", p.goal_tolerance);
-  reader.read("lookahead", p.lookahead);
-  reader.read("path_count", p.path_count);
-  reader.read("blocked_timeout", p.blocked_timeout);
-  reader.read("self_padding", p.self_padding);
-  reader.read("obstacle_memory", p.obstacle_memory);
-  // Global planner.
-  reader.read("planner", p.planner);
-  reader.read("planner_rate", p.planner_rate);
-  reader.read("planner_resolution", p.planner_resolution);
-  reader.read("planner_memory", p.planner_memory);
-  reader.read("planner_inflation", p.planner_inflation);
-  reader.read("planner_clearance", p.planner_clearance);
-  reader.read("planner_margin", p.planner_margin);
-  reader.read("carrot_distance", p.carrot_distance);
   p.validate();
 
-  reader.read("scan_topics", n.scan_topics);
-  reader.read("cloud_topics", n.cloud_topics);
-  reader.read("odom_frame", n.odom_frame);
-  reader.read("robot_frame", n.robot_frame);
+  reader.readFields(n);
   if (reader.readRaw("height_band", v))
   {
     if (v.getType() != XmlRpcValue::TypeArray || v.size() != 2)
@@ -104,9 +84,6 @@ void readParameters(laserscan_common::ParameterReader& reader, NavigatorParamete
     n.height_band_min = toNumber(v[0], "height_band[0]");
     n.height_band_max = toNumber(v[1], "height_band[1]");
   }
-  reader.read("control_rate", n.control_rate);
-  reader.read("lockstep", n.lockstep);
-  reader.read("lockstep_timeout", n.lockstep_timeout);
   n.validate();
   reader.warnUnknown();
 }
@@ -254,20 +231,19 @@ void ReactiveNavigatorRos::cloudArrived(std::size_t index, const sensor_msgs::Po
   {
     std::lock_guard<std::mutex> lock(mutex_);
     Source& source = sources_[index];
-    int found = 0;
-    for (const auto& f : cloud->fields)
-      if ((f.name == "x" || f.name == "y" || f.name == "z") && f.datatype == sensor_msgs::PointField::FLOAT32 &&
-          f.offset + 4 <= cloud->point_step)
-        ++found;
-    const std::size_t count = static_cast<std::size_t>(cloud->width) * cloud->height;
-    if (found != 3 || cloud->is_bigendian || count * cloud->point_step > cloud->data.size())
+    // The converters' checks (laserscan_common::makeCloudView): x/y/z float32 or float64,
+    // little-endian, inside point_step, rows row_step apart, the data exactly row_step x height.
+    laserscan_common::CloudView view;
+    const std::string reason = laserscan_common::makeCloudView(laserscan_common::cloudLayoutOf(*cloud),
+                                                               cloud->data.data(), cloud->data.size(), "", view);
+    if (!reason.empty())
     {
-      warn(source.topic, "cloud on '" + source.topic +
-                           "' ignored: it needs float32 fields x, y, z (little-endian) and data for width x "
-                           "height points");
+      // Throttled per topic and kind of defect (the reason without its numbers).
+      warn("malformed " + source.topic + ": " + laserscan_common::faultKind(reason),
+           "dropped a malformed cloud on '" + source.topic + "' (frame '" + cloud->header.frame_id + "'): " + reason);
       return;
     }
-    source.clouds.push_back(cloud);
+    source.clouds.push_back(CloudMessage{ cloud, view });
     if (source.clouds.size() > kKeptMessages)
       source.clouds.pop_front();
     source.newest_stamp = std::max(source.newest_stamp, cloud->header.stamp);
@@ -372,19 +348,26 @@ void ReactiveNavigatorRos::collectObstacles(const ros::Time& time, bool up_to_ti
   for (auto& s : sources_)
   {
     // The newest message stamped up to the step's time (or the newest of all).
-    auto pick = [&](const auto& queue) -> decltype(queue.back().get()) {
+    auto pick = [&](const auto& queue, const auto& message_of) -> decltype(&queue.back()) {
       for (auto it = queue.rbegin(); it != queue.rend(); ++it)
-        if (!up_to_time || (*it)->header.stamp.toSec() <= time.toSec() + kStampEpsilon)
-          return it->get();
+        if (!up_to_time || message_of(*it).header.stamp.toSec() <= time.toSec() + kStampEpsilon)
+          return &*it;
       return nullptr;
     };
     const std_msgs::Header* header = nullptr;
     const sensor_msgs::LaserScan* scan = nullptr;
-    const sensor_msgs::PointCloud2* cloud = nullptr;
+    const CloudMessage* cloud = nullptr;
     if (s.is_cloud)
-      header = (cloud = pick(s.clouds)) ? &cloud->header : nullptr;
+    {
+      cloud = pick(s.clouds, [](const CloudMessage& c) -> const sensor_msgs::PointCloud2& { return *c.message; });
+      header = cloud ? &cloud->message->header : nullptr;
+    }
     else
-      header = (scan = pick(s.scans)) ? &scan->header : nullptr;
+    {
+      const auto* newest = pick(s.scans, [](const auto& m) -> const sensor_msgs::LaserScan& { return *m; });
+      scan = newest ? newest->get() : nullptr;
+      header = scan ? &scan->header : nullptr;
+    }
     if (header == nullptr)
       continue;
     Eigen::Isometry3d sensor_to_robot;
@@ -408,18 +391,8 @@ void ReactiveNavigatorRos::collectObstacles(const ros::Time& time, bool up_to_ti
                        sensor_to_robot, points_);
     else
     {
-      CloudView view;
-      view.data = cloud->data.data();
-      view.count = static_cast<std::size_t>(cloud->width) * cloud->height;
-      view.point_step = cloud->point_step;
-      for (const auto& f : cloud->fields)
-        if (f.name == "x")
-          view.offset_x = f.offset;
-        else if (f.name == "y")
-          view.offset_y = f.offset;
-        else if (f.name == "z")
-          view.offset_z = f.offset;
-      appendCloudPoints(view, sensor_to_robot, parameters_.height_band_min, parameters_.height_band_max, points_);
+      appendCloudPoints(cloud->view, sensor_to_robot, parameters_.height_band_min, parameters_.height_band_max,
+                        points_);
     }
   }
 }

@@ -4,7 +4,12 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstring>
+#include <string>
+#include <type_traits>
+#include <vector>
 
+#include "laserscan_common/cloud_view.hpp"
 #include "reactive_navigator/navigator_core.hpp"
 #include "reactive_navigator/obstacle_points.hpp"
 
@@ -344,6 +349,40 @@ void expectError(const Parameters& p, const std::string& name)
   }
 }
 
+TEST(Parameters, ALimitIsTheTableLinesInItsWords)
+{
+  // The limits are the field tables' (checkLimits, the words check_config writes too).
+  NavigatorParameters p;
+  p.max_linear_speed = 0.0;
+  try
+  {
+    p.validate();
+    ADD_FAILURE() << "max_linear_speed 0 passed";
+  }
+  catch (const ParameterError& e)
+  {
+    EXPECT_STREQ(e.what(), "max_linear_speed: must be > 0 m/s, got 0");
+  }
+  p = NavigatorParameters{};
+  p.path_count = 1002;
+  EXPECT_THROW(p.validate(), ParameterError);
+  NodeParameters n;
+  n.scan_topics = { "scan" };
+  n.odom_frame.clear();
+  try
+  {
+    n.validate();
+    ADD_FAILURE() << "an empty odom_frame passed";
+  }
+  catch (const ParameterError& e)
+  {
+    EXPECT_STREQ(e.what(), "odom_frame: must not be empty");
+  }
+  const std::vector<std::string> names = laserscan_common::fieldNames(NodeParameters{});
+  EXPECT_EQ(names.front(), "scan_topics");
+  EXPECT_EQ(laserscan_common::fieldNames(NavigatorParameters{}).size(), 18u);
+}
+
 TEST(Parameters, EachBadValueNamesItsParameter)
 {
   NavigatorParameters p;
@@ -449,22 +488,152 @@ TEST(ObstaclePoints, ScanBeamsFollowRep117)
   EXPECT_NEAR(out[2].x(), 0.4f - 2.0f, 1e-5);  // beam 6 at 3 pi rad, 2 m
 }
 
-TEST(ObstaclePoints, CloudPointsAreTransformedAndKeptInTheBand)
+// A PointCloud2's layout and bytes: `rows` of points with x, y, z of type T at 0, sizeof(T) and
+// 2 sizeof(T) and one T of padding (point_step 4 sizeof(T)), each row followed by `row_padding`
+// bytes. Padding holds the value `filler` over and over: read as a point, it would be (filler,
+// filler, filler), a point the tests' band keeps.
+struct TestCloud
 {
-  // A camera tilted 90 degrees down (optical z along -z of the robot) 1 m above base_link.
-  struct P
+  laserscan_common::CloudLayout layout;
+  std::vector<std::uint8_t> data;
+};
+
+template <typename T>
+TestCloud makeTestCloud(const std::vector<std::vector<Eigen::Vector3d>>& rows, std::size_t row_padding,
+                        T filler = T(0.5))
+{
+  static_assert(std::is_same_v<T, float> || std::is_same_v<T, double>);
+  const std::uint8_t type = std::is_same_v<T, float> ? 7 : 8;  // FLOAT32, FLOAT64
+  TestCloud cloud;
+  cloud.layout.height = static_cast<std::uint32_t>(rows.size());
+  cloud.layout.width = rows.empty() ? 0 : static_cast<std::uint32_t>(rows[0].size());
+  cloud.layout.point_step = 4 * sizeof(T);
+  cloud.layout.row_step = static_cast<std::uint32_t>(cloud.layout.width * cloud.layout.point_step + row_padding);
+  for (std::uint32_t i = 0; i < 3; ++i)
+    cloud.layout.fields.push_back(
+      { std::string(1, static_cast<char>('x' + i)), i * std::uint32_t{ sizeof(T) }, type, 1 });
+  const std::size_t size = static_cast<std::size_t>(cloud.layout.row_step) * cloud.layout.height;
+  for (std::size_t at = 0; at + sizeof(T) <= size; at += sizeof(T))
   {
-    float x, y, z, pad;
-  };
-  const P points[] = { { 0, 0, 0.5f, 0 }, { 0, 0, 0.99f, 0 }, { 0, 0, NAN, 0 }, { 0, 0, 0.2f, 0 } };
-  CloudView cloud{ reinterpret_cast<const std::uint8_t*>(points), 4, sizeof(P), 0, 4, 8 };
+    const std::size_t before = cloud.data.size();
+    cloud.data.resize(before + sizeof(T));
+    std::memcpy(cloud.data.data() + before, &filler, sizeof(T));
+  }
+  cloud.data.resize(size, 0);
+  for (std::size_t r = 0; r < rows.size(); ++r)
+    for (std::size_t c = 0; c < rows[r].size(); ++c)
+      for (int k = 0; k < 3; ++k)
+      {
+        const T value = static_cast<T>(rows[r][c][k]);
+        std::memcpy(cloud.data.data() + r * cloud.layout.row_step + c * cloud.layout.point_step + k * sizeof(T), &value,
+                    sizeof(T));
+      }
+  return cloud;
+}
+
+// A camera tilted 180 degrees about x (optical z along -z of the robot) 1 m above base_link.
+Eigen::Isometry3d downwardCamera()
+{
   Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
   mount.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
   mount.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  return mount;
+}
+
+laserscan_common::CloudView viewOf(const TestCloud& cloud)
+{
+  laserscan_common::CloudView view;
+  EXPECT_EQ(laserscan_common::makeCloudView(cloud.layout, cloud.data.data(), cloud.data.size(), "", view), "");
+  return view;
+}
+
+TEST(ObstaclePoints, CloudPointsAreTransformedAndKeptInTheBand)
+{
+  const TestCloud cloud = makeTestCloud<float>({ { { 0, 0, 0.5 }, { 0, 0, 0.99 }, { 0, 0, NAN }, { 0, 0, 0.2 } } }, 0);
   ObstaclePoints out;
-  ASSERT_EQ(appendCloudPoints(cloud, mount, 0.05, 0.9, out), 2u);
+  ASSERT_EQ(appendCloudPoints(viewOf(cloud), downwardCamera(), 0.05, 0.9, out), 2u);
   EXPECT_NEAR(out[0].z(), 0.5f, 1e-6);  // 0.5 m below the camera
   EXPECT_NEAR(out[1].z(), 0.8f, 1e-6);  // 0.2 m below; the 0.99 m one is at 0.01 m: the floor
+}
+
+// Every point of the clouds below once, in the robot frame: x, -y, 1 - z.
+void expectRowsSeenByTheDownwardCamera(const ObstaclePoints& out, const std::vector<std::vector<Eigen::Vector3d>>& rows,
+                                       float tolerance)
+{
+  std::size_t k = 0;
+  for (const auto& row : rows)
+    for (const auto& p : row)
+    {
+      ASSERT_LT(k, out.size());
+      EXPECT_NEAR(out[k].x(), p.x(), tolerance) << "point " << k;
+      EXPECT_NEAR(out[k].y(), -p.y(), tolerance) << "point " << k;
+      EXPECT_NEAR(out[k].z(), 1.0 - p.z(), tolerance) << "point " << k;
+      ++k;
+    }
+  EXPECT_EQ(out.size(), k);
+}
+
+TEST(ObstaclePoints, ACloudWithPaddedRowsGivesEachPointOnceAndNoPadding)
+{
+  // Two rows of three points, each row followed by 20 bytes of padding (the filler 0.5, read as a
+  // point, would be kept: it is 0.5 m up in the robot frame).
+  const std::vector<std::vector<Eigen::Vector3d>> rows = {
+    { { 0.1, 0.2, 0.6 }, { 0.3, 0.4, 0.7 }, { 0.5, 0.6, 0.8 } },
+    { { 1.1, 1.2, 0.6 }, { 1.3, 1.4, 0.7 }, { 1.5, 1.6, 0.8 } }
+  };
+  const TestCloud cloud = makeTestCloud<float>(rows, 20);
+  ASSERT_GT(cloud.layout.row_step, cloud.layout.width * cloud.layout.point_step);
+  ObstaclePoints out;
+  ASSERT_EQ(appendCloudPoints(viewOf(cloud), downwardCamera(), 0.05, 0.9, out), 6u);
+  expectRowsSeenByTheDownwardCamera(out, rows, 1e-6f);
+}
+
+TEST(ObstaclePoints, AFloat64CloudIsReadAsDoubles)
+{
+  // Padded rows as well; values a float read of the doubles' bytes would not give.
+  const std::vector<std::vector<Eigen::Vector3d>> rows = { { { 0.25, -0.5, 0.3 }, { 2.0, 1.5, 0.6 } },
+                                                           { { -1.0, 0.75, 0.9 }, { 3.5, -2.25, 0.45 } } };
+  const TestCloud cloud = makeTestCloud<double>(rows, 16);
+  const laserscan_common::CloudView view = viewOf(cloud);
+  ASSERT_EQ(view.xyz_type, laserscan_common::FieldType::Float64);
+  ObstaclePoints out;
+  ASSERT_EQ(appendCloudPoints(view, downwardCamera(), 0.05, 0.9, out), 4u);
+  expectRowsSeenByTheDownwardCamera(out, rows, 1e-6f);
+
+  // A double beyond float's range, NaN and Inf add nothing (and are no undefined cast).
+  const TestCloud far =
+    makeTestCloud<double>({ { { 1e300, 0.0, 0.5 }, { NAN, 0.0, 0.5 }, { 0.0, INFINITY, 0.5 } } }, 0);
+  out.clear();
+  EXPECT_EQ(appendCloudPoints(viewOf(far), downwardCamera(), 0.05, 0.9, out), 0u);
+}
+
+TEST(ObstaclePoints, AMalformedCloudIsRejectedWithItsReason)
+{
+  const std::vector<std::vector<Eigen::Vector3d>> rows = { { { 0.1, 0.2, 0.6 }, { 0.3, 0.4, 0.7 } } };
+  const auto reason = [](const TestCloud& c) {
+    laserscan_common::CloudView view;
+    return laserscan_common::makeCloudView(c.layout, c.data.data(), c.data.size(), "", view);
+  };
+  TestCloud c = makeTestCloud<float>(rows, 0);
+  EXPECT_EQ(reason(c), "");
+
+  c.layout.row_step -= 1;  // rows overlap
+  EXPECT_NE(reason(c).find("row_step"), std::string::npos) << reason(c);
+  c = makeTestCloud<float>(rows, 0);
+  c.data.pop_back();  // shorter than row_step x height
+  EXPECT_NE(reason(c).find("data size"), std::string::npos) << reason(c);
+  c = makeTestCloud<float>(rows, 0);
+  c.layout.fields[2].datatype = 3;  // z as INT16
+  EXPECT_NE(reason(c).find("field 'z' has datatype 3"), std::string::npos) << reason(c);
+  c = makeTestCloud<float>(rows, 0);
+  c.layout.fields[1].datatype = 8;  // y as FLOAT64 among float32 x and z
+  EXPECT_NE(reason(c).find("one datatype"), std::string::npos) << reason(c);
+  c = makeTestCloud<float>(rows, 0);
+  c.layout.fields.erase(c.layout.fields.begin());  // no x
+  EXPECT_NE(reason(c).find("field 'x' is missing"), std::string::npos) << reason(c);
+  c = makeTestCloud<float>(rows, 0);
+  c.layout.is_bigendian = true;
+  EXPECT_NE(reason(c).find("is_bigendian"), std::string::npos) << reason(c);
 }
 
 }  // namespace

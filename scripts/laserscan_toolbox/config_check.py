@@ -80,43 +80,18 @@ SCHEMAS = {"converter": CONVERTER, "merger": MERGER, "range": RANGE}
 RANGE_KEYS_ONLY = {"arc_width_scale", "arc_width", "min_consecutive_readings"}
 
 
-# reactive_navigator (its own package: MRPT's navigators): reactive_navigator/README.md, Parameters.
-NAVIGATOR = {
-    "mode": Key("str", "2d", doc="2d (footprint, planar points) or 3d (shape_3d, 3D points)"),
-    "scan_topics": Key("topic_list", [], doc="LaserScan obstacle sources"),
-    "cloud_topics": Key("topic_list", [], doc="PointCloud2 obstacle sources (float32 x, y, z)"),
-    "odom_frame": Key("str", "odom", nonempty=True, doc="the frame the robot's pose is in"),
-    "robot_frame": Key("str", "base_link", nonempty=True, doc="the robot's frame"),
+# reactive_navigator (its own package: MRPT's navigators): its node's and its core's tables, plus
+# the structured parameters read outside them; its topic lists are checked as topics (no empty
+# name, none twice: NodeParameters::validate).
+NAVIGATOR = {f["name"]: _key(f) for f in _TABLES["navigator"]}
+for _name in ("scan_topics", "cloud_topics"):
+    NAVIGATOR[_name].kind = "topic_list"
+NAVIGATOR.update({
     "height_band": Key("band", [0.05, 0.90], "m", doc="cloud points kept: [min, max] in robot_frame"),
     "footprint": Key("polygon", None, "m", doc="the robot's outline (2d); default the paper's 0.74 x 0.48 m"),
     "shape_3d": Key("shape_levels", None, "m", doc="prisms stacked from the floor: {height, polygon} (3d)"),
-    "max_linear_speed": Key("float", 0.5, "m/s", lo=0.0, lo_open=True, finite=True, doc="speed limit"),
-    "max_angular_speed": Key("float", 0.8, "rad/s", lo=0.0, lo_open=True, finite=True, doc="turn rate limit"),
-    "linear_acceleration": Key("float", 1.0, "m/s^2", lo=0.0, lo_open=True, finite=True, doc="acceleration"),
-    "goal_tolerance": Key("float", 0.25, "m", lo=0.0, lo_open=True, finite=True, doc="reached closer than this"),
-    "lookahead": Key("float", 4.0, "m", lo=0.0, lo_open=True, finite=True, doc="obstacles considered up to"),
-    "path_count": Key("int", 61, lo=3, hi=1001, doc="candidate directions of the PTG"),
-    "blocked_timeout": Key("float", 15.0, "s", lo=0.0, lo_open=True, finite=True, doc="no progress -> blocked"),
-    "self_padding": Key("float", 0.05, "m", lo=0.0, finite=True, doc="points this close to the shape are its body"),
-    "obstacle_memory": Key("float", 2.0, "s", lo=0.0, finite=True, doc="obstacle points kept after last seen"),
-    "control_rate": Key("float", 10.0, "Hz", lo=0.0, lo_open=True, finite=True, doc="steps per second (ROS time)"),
-    "lockstep": Key("bool", False, doc="steps wait for every source's data (simulation)"),
-    "lockstep_timeout": Key("float", 5.0, "s", lo=0.0, lo_open=True, finite=True, doc="wall s a step waits"),
-    # Global planner (reactive_navigator/README.md: Method, 2).
-    "planner": Key("bool", True, doc="A* on a grid of the obstacle points gives MRPT a carrot (false: the goal)"),
-    "planner_rate": Key("float", 2.0, "Hz", lo=0.0, lo_open=True, finite=True, doc="replans per second"),
-    "planner_resolution": Key("float", 0.10, "m", lo=0.0, lo_open=True, hi=1.0, doc="grid cell"),
-    "planner_memory": Key("float", 20.0, "s", lo=0.0, lo_open=True, finite=True,
-                          doc="a cell is an obstacle this long after its last point"),
-    "planner_inflation": Key("float", 0.05, "m", lo=0.0, finite=True,
-                             doc="beyond the robot's circle, as costly as an obstacle"),
-    "planner_clearance": Key("float", 0.20, "m", lo=0.0, finite=True,
-                             doc="beyond that, the extra cost falls to none"),
-    "planner_margin": Key("float", 3.0, "m", lo=0.0, lo_open=True, finite=True,
-                          doc="around the robot and the goal, the search's extent"),
-    "carrot_distance": Key("float", 3.0, "m", lo=0.0, lo_open=True, finite=True,
-                           doc="along the path: MRPT's target"),
-}
+})
+NAVIGATOR_OUTSIDE_TABLES = {"height_band", "footprint", "shape_3d"}
 SCHEMAS["navigator"] = NAVIGATOR
 NAVIGATOR_KEYS_ONLY = {"scan_topics", "cloud_topics", "shape_3d", "lockstep", "goal_tolerance"}
 
@@ -168,6 +143,15 @@ def check_navigator(params, prefix=""):
         problems.append("%s: needs at least 3 [x, y] points" % _join(prefix, "footprint"))
     if not params.get("scan_topics") and not params.get("cloud_topics"):
         problems.append("%s: no obstacle source: give scan_topics and/or cloud_topics" % _join(prefix, "scan_topics"))
+    # A topic in both lists (one listed twice within a list is check_value's).
+    scans, clouds = ({t for t in params.get(k) or [] if isinstance(t, str)} if isinstance(params.get(k), list)
+                     else set() for k in ("scan_topics", "cloud_topics"))
+    if scans & clouds:
+        problems.append("%s: topic '%s' is in scan_topics too" % (_join(prefix, "cloud_topics"),
+                                                                  sorted(scans & clouds)[0]))
+    if params.get("robot_frame", NAVIGATOR["robot_frame"].default) == params.get("odom_frame",
+                                                                                  NAVIGATOR["odom_frame"].default):
+        problems.append("%s: must differ from odom_frame" % _join(prefix, "robot_frame"))
     return problems
 
 

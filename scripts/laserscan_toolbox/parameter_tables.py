@@ -26,6 +26,7 @@ README_TABLES = [
     ("multi_laserscan_merger/README.md", "", "Each entry of `sources`:", "source", ""),
     ("laserscan_common/README.md", "## Self filter", "| parameter | type | unit | default | meaning |",
      "self_filter", "self_filter/"),
+    ("reactive_navigator/README.md", "", "## Parameters", "navigator", ""),
 ]
 README_TYPES = {"double": "double", "int": "int", "bool": "bool", "string": "string",
                 "polygon": "list of `[x, y]`", "string list": "list of strings", "shape list": "list of dicts"}
@@ -36,9 +37,12 @@ def export():
     import depth_filter_scan_converter_core as converter_core
     import depth_filter_scan_converter_range_core as range_core
     import multi_laserscan_merger_core as merger_core
+    import reactive_navigator_core as navigator_core
     tables = {"converter": converter_core.parameter_table(), "range": range_core.parameter_table(),
               "merger": merger_core.parameter_table(), "source": merger_core.source_parameter_table(),
-              "self_filter": converter_core.self_filter_parameter_table()}
+              "self_filter": converter_core.self_filter_parameter_table(),
+              # One README table and one check_config block for the node's and the core's structs.
+              "navigator": list(navigator_core.node_parameter_table()) + list(navigator_core.parameter_table())}
     return {kind: [dict(field) for field in fields] for kind, fields in tables.items()}
 
 

@@ -20,6 +20,17 @@ inline bool due(ros::WallTime& last, double period = 5.0)
   return true;
 }
 
+/// The kind of a fault whose text carries numbers (stamps, sizes) that change from message to
+/// message: the text without its digits, so that a stream of the same defect is one kind.
+inline std::string faultKind(const std::string& text)
+{
+  std::string kind;
+  for (const char c : text)
+    if (c < '0' || c > '9')
+      kind += c;
+  return kind;
+}
+
 /// A timer per kind of fault (a fault text, a frame pair, ...): a kind is reported at once the
 /// first time, then at most every period; one kind never silences another. Not locked: its owner
 /// calls it under its own lock.

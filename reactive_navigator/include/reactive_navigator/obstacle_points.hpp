@@ -1,5 +1,6 @@
 // Obstacle points for the navigator from a scan's beams or a cloud's points, in the robot frame.
-// ROS-free: the glue hands in the message's arrays and the sensor's transform at its stamp.
+// ROS-free: the glue hands in the message's arrays (a cloud as laserscan_common's view) and the
+// sensor's transform at its stamp.
 #pragma once
 
 #include <cstddef>
@@ -7,6 +8,7 @@
 
 #include <Eigen/Geometry>
 
+#include "laserscan_common/cloud_view.hpp"
 #include "reactive_navigator/navigator_core.hpp"
 
 namespace reactive_navigator
@@ -30,20 +32,11 @@ struct ScanView
 /// the unified scan's projection, already chose what is an obstacle). Returns the points added.
 std::size_t appendScanPoints(const ScanView& scan, const Eigen::Isometry3d& sensor_to_robot, ObstaclePoints& out);
 
-/// A PointCloud2's x, y, z float32 fields: `count` points `point_step` bytes apart.
-struct CloudView
-{
-  const std::uint8_t* data = nullptr;
-  std::size_t count = 0;
-  std::size_t point_step = 0;
-  std::size_t offset_x = 0;
-  std::size_t offset_y = 0;
-  std::size_t offset_z = 0;
-};
-
 /// Appends the cloud's finite points whose height in the robot frame is within
-/// [band_min, band_max] (as a costmap's obstacle layer keeps its band). Returns the points added.
-std::size_t appendCloudPoints(const CloudView& cloud, const Eigen::Isometry3d& sensor_to_robot, double band_min,
-                              double band_max, ObstaclePoints& out);
+/// [band_min, band_max] (as a costmap's obstacle layer keeps its band). The cloud is read through
+/// laserscan_common's view (laserscan_common::makeCloudView checked it): rows row_step bytes
+/// apart, x/y/z float32 or float64. Returns the points added.
+std::size_t appendCloudPoints(const laserscan_common::CloudView& cloud, const Eigen::Isometry3d& sensor_to_robot,
+                              double band_min, double band_max, ObstaclePoints& out);
 
 }  // namespace reactive_navigator

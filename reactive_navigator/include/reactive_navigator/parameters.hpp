@@ -1,19 +1,26 @@
 // The navigator's parameters: the robot's shape, its limits and the navigation's tuning (core), and
-// what only the ROS node needs (topics, frames, rate, lockstep). Defaults are written here; every
-// validate() throws laserscan_common::ParameterError naming the parameter and the reason.
+// what only the ROS node needs (topics, frames, rate, lockstep). Defaults are written here, limits
+// in each struct's field table (laserscan_common/parameter_table.hpp: the ROS reader, the pybind11
+// module, check_config's schema and the README table walk it); every validate() checks those
+// (laserscan_common::checkLimits), then the rules a table line cannot say, throwing
+// laserscan_common::ParameterError naming the parameter and the reason. The structured parameters
+// (footprint, shape_3d, height_band) are read and checked outside the tables.
 #pragma once
 
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "laserscan_common/parameter_error.hpp"
+#include "laserscan_common/parameter_table.hpp"
 
 namespace reactive_navigator
 {
 
 using laserscan_common::ParameterError;
+using laserscan_common::ParamInfo;
 
 /// A polygon in the robot frame (m), vertices in order.
 using Polygon = std::vector<Eigen::Vector2d>;
@@ -74,11 +81,69 @@ struct NavigatorParameters
   bool volumetric() const { return mode == "3d"; }
 };
 
+/// The table of NavigatorParameters (footprint and shape_3d apart).
+template <class P, class V, std::enable_if_t<std::is_same_v<std::decay_t<P>, NavigatorParameters>, int> = 0>
+void visitFields(P& p, V&& visit)
+{
+  visit(p.mode, ParamInfo("mode", "",
+                          "`2d`: CReactiveNavigationSystem (footprint, points projected to the floor); `3d`: "
+                          "CReactiveNavigationSystem3D (shape_3d, 3D points)"));
+  visit(p.max_linear_speed, ParamInfo("max_linear_speed", "m/s", "speed limit").above(0.0).finiteOnly());
+  visit(p.max_angular_speed, ParamInfo("max_angular_speed", "rad/s", "turn rate limit").above(0.0).finiteOnly());
+  visit(p.linear_acceleration, ParamInfo("linear_acceleration", "m/s^2",
+                                         "the PTG reaches its speed in `max_linear_speed / linear_acceleration` s")
+                                 .above(0.0)
+                                 .finiteOnly());
+  visit(p.goal_tolerance, ParamInfo("goal_tolerance", "m", "reached closer than this").above(0.0).finiteOnly());
+  visit(p.lookahead, ParamInfo("lookahead", "m", "obstacles farther away are not considered (MRPT's ref_distance)")
+                       .above(0.0)
+                       .finiteOnly());
+  visit(p.path_count,
+        ParamInfo("path_count", "", "candidate directions of the PTG (3 - 1001)").atLeast(3).atMost(1001));
+  visit(p.blocked_timeout,
+        ParamInfo("blocked_timeout", "s", "no 0.1 m of progress for this long: `blocked`").above(0.0).finiteOnly());
+  visit(p.self_padding, ParamInfo("self_padding", "m", "points within this of the robot's shape are its own body")
+                          .atLeast(0.0)
+                          .finiteOnly());
+  visit(p.obstacle_memory,
+        ParamInfo("obstacle_memory", "s",
+                  "obstacle points kept this long after last seen (odometry frame, one per 5 cm cell, within "
+                  "`lookahead`); 0 = only the step's points")
+          .atLeast(0.0)
+          .finiteOnly());
+  visit(p.planner, ParamInfo("planner", "",
+                             "the global planner gives MRPT a carrot along its path (false: MRPT is given the "
+                             "goal, purely reactive)"));
+  visit(p.planner_rate, ParamInfo("planner_rate", "Hz", "replans per second of ROS time").above(0.0).finiteOnly());
+  visit(p.planner_resolution,
+        ParamInfo("planner_resolution", "m", "the planner's grid cell (at most 1 m)").above(0.0).atMost(1.0));
+  visit(
+    p.planner_memory,
+    ParamInfo("planner_memory", "s", "a cell is an obstacle this long after its last point").above(0.0).finiteOnly());
+  visit(p.planner_inflation, ParamInfo("planner_inflation", "m",
+                                       "beyond the robot's circle: cells this close to an obstacle cost as much as one")
+                               .atLeast(0.0)
+                               .finiteOnly());
+  visit(p.planner_clearance, ParamInfo("planner_clearance", "m", "beyond that, the extra cost falls to none over this")
+                               .atLeast(0.0)
+                               .finiteOnly());
+  visit(p.planner_margin,
+        ParamInfo("planner_margin", "m", "the search covers the rectangle around the robot and the goal grown by this")
+          .above(0.0)
+          .finiteOnly());
+  visit(p.carrot_distance,
+        ParamInfo("carrot_distance", "m",
+                  "MRPT's target: this far along the path (the goal once less is left); not much below "
+                  "`lookahead` (MRPT shuns a target close in front of an obstacle)")
+          .above(0.0)
+          .finiteOnly());
+}
+
 /// What only the ROS node needs.
 struct NodeParameters
 {
   std::vector<std::string> scan_topics;   ///< LaserScan obstacle sources
-  std::vector<std::string> cloud_topics;  ///< PointCloud2 obstacle sources (x, y, z float32)
+  std::vector<std::string> cloud_topics;  ///< PointCloud2 obstacle sources (x, y, z float32 or float64)
   std::string odom_frame = "odom";
   std::string robot_frame = "base_link";
   double height_band_min = 0.05;  ///< m, robot frame: cloud points below are dropped (the floor)
@@ -89,5 +154,21 @@ struct NodeParameters
 
   void validate() const;
 };
+
+/// The table of NodeParameters (height_band apart: one [min, max] parameter for two fields).
+template <class P, class V, std::enable_if_t<std::is_same_v<std::decay_t<P>, NodeParameters>, int> = 0>
+void visitFields(P& p, V&& visit)
+{
+  visit(p.scan_topics, ParamInfo("scan_topics", "", "LaserScan obstacle sources (at least one source in all)"));
+  visit(p.cloud_topics, ParamInfo("cloud_topics", "", "PointCloud2 obstacle sources"));
+  visit(p.odom_frame, ParamInfo("odom_frame", "", "the frame the pose and the goal are in").nonEmpty());
+  visit(p.robot_frame, ParamInfo("robot_frame", "", "the robot's frame (the commands' frame)").nonEmpty());
+  visit(p.control_rate, ParamInfo("control_rate", "Hz", "steps per second of ROS time").above(0.0).finiteOnly());
+  visit(p.lockstep, ParamInfo("lockstep", "", "steps wait for every source's data (simulation; see above)"));
+  visit(p.lockstep_timeout,
+        ParamInfo("lockstep_timeout", "s", "wall seconds after which a lockstep step runs on what there is")
+          .above(0.0)
+          .finiteOnly());
+}
 
 }  // namespace reactive_navigator

@@ -17,6 +17,7 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2/buffer_core.h>
 
+#include "laserscan_common/cloud_view.hpp"
 #include "laserscan_common/node_glue.hpp"
 #include "laserscan_common/parameter_reader.hpp"
 #include "laserscan_common/throttle.hpp"
@@ -38,12 +39,19 @@ public:
 private:
   // The messages of one obstacle topic, oldest first (a few: a step takes the newest stamped up to
   // its time, and newer ones may already be there).
+  // A cloud that passed laserscan_common::makeCloudView, with its view (into the message's bytes,
+  // which the message keeps).
+  struct CloudMessage
+  {
+    sensor_msgs::PointCloud2::ConstPtr message;
+    laserscan_common::CloudView view;
+  };
   struct Source
   {
     std::string topic;
     bool is_cloud = false;
     std::deque<sensor_msgs::LaserScan::ConstPtr> scans;
-    std::deque<sensor_msgs::PointCloud2::ConstPtr> clouds;
+    std::deque<CloudMessage> clouds;
     ros::Time newest_stamp;
   };
 

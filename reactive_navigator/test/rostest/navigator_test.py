@@ -5,8 +5,10 @@ Drives the navigator in lockstep on simulated time, as the closed-loop simulator
 step time t it publishes /clock = t, the robot's tf at t, a LaserScan from a lidar 0.2 m above
 base_link and a PointCloud2 from a camera 1 m up looking straight down, both stamped t, and waits
 for ~step stamped t. Checks: a goal in gives cmd_vel towards it (and ~step carries the same
-command) and ~plan the planner's path to it, a wall in the scan stops the forward motion, and the cloud's points go through tf (only
-those the camera sees inside the height band count as obstacles, /diagnostics says how many)."""
+command) and ~plan the planner's path to it, a wall in the scan stops the forward motion, and the
+cloud's points go through tf (only those the camera sees inside the height band count as
+obstacles, /diagnostics says how many), read right from a float64 cloud with padded rows; a
+malformed cloud is dropped with a warning naming its defect, and the node runs on."""
 import math
 import threading
 import time
@@ -18,7 +20,7 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, TransformStamped, Twist, TwistStamped
 from nav_msgs.msg import Path
-from rosgraph_msgs.msg import Clock
+from rosgraph_msgs.msg import Clock, Log
 from sensor_msgs.msg import LaserScan, PointCloud2, PointField
 from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
@@ -40,19 +42,26 @@ def transform(parent, child, t, x, y, z, qx=0.0, qy=0.0, qz=0.0, qw=1.0):
     return m
 
 
-def camera_cloud(stamp):
-    depth = np.concatenate([np.full(IN_BAND, 0.5), np.full(BELOW_BAND, 0.98)]).astype(np.float32)
-    xs = np.linspace(0.5, 1.5, depth.size).astype(np.float32)
+def camera_cloud(stamp, in_band=IN_BAND, dtype=np.float32, rows=1, row_padding=0):
+    """`in_band` points 0.5 m below the camera, the others (of 100) 0.98 m below, as `rows` rows
+    of x, y, z of `dtype`, each row followed by `row_padding` bytes that, read as a point, would be
+    one in the band (0.5 m below the camera)."""
+    depth = np.concatenate([np.full(in_band, 0.5), np.full(IN_BAND + BELOW_BAND - in_band, 0.98)])
+    xs = np.linspace(0.5, 1.5, depth.size)
     # Camera y = 1.5 m is robot y = -1.5 m (the camera is upside down): beside the way.
-    points = np.stack([xs, np.full_like(xs, 1.5), depth], axis=1).astype(np.float32)
+    points = np.stack([xs, np.full_like(xs, 1.5), depth], axis=1).astype(dtype).reshape(rows, -1, 3)
+    size = np.dtype(dtype).itemsize
+    filler = np.full(row_padding // size, 0.5, dtype=dtype).tobytes().ljust(row_padding, b'\0')
     m = PointCloud2()
     m.header.stamp = stamp
     m.header.frame_id = 'camera'
-    m.height, m.width = 1, points.shape[0]
-    m.fields = [PointField(n, 4 * i, PointField.FLOAT32, 1) for i, n in enumerate('xyz')]
-    m.point_step, m.row_step = 12, 12 * points.shape[0]
+    m.height, m.width = rows, points.shape[1]
+    datatype = PointField.FLOAT32 if size == 4 else PointField.FLOAT64
+    m.fields = [PointField(n, size * i, datatype, 1) for i, n in enumerate('xyz')]
+    m.point_step = 3 * size
+    m.row_step = m.point_step * m.width + row_padding
     m.is_dense = True
-    m.data = points.tobytes()
+    m.data = b''.join(row.tobytes() + filler for row in points)
     return m
 
 
@@ -77,7 +86,7 @@ class NavigatorTest(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('navigator_test')
         cls.cond = threading.Condition()
-        cls.steps, cls.cmds, cls.states, cls.diagnostics, cls.plans = {}, [], [], [], []
+        cls.steps, cls.cmds, cls.states, cls.diagnostics, cls.logs, cls.plans = {}, [], [], [], [], []
         cls.clock = rospy.Publisher('/clock', Clock, queue_size=10)
         cls.tf = rospy.Publisher('/tf', TFMessage, queue_size=10)
         cls.tf_static = rospy.Publisher('/tf_static', TFMessage, queue_size=1, latch=True)
@@ -89,6 +98,7 @@ class NavigatorTest(unittest.TestCase):
         rospy.Subscriber('navigator/state', String, cls.keep('states'))
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.keep('diagnostics'))
         rospy.Subscriber('navigator/plan', Path, cls.keep('plans'))
+        rospy.Subscriber('/rosout', Log, cls.keep('logs'))
         cls.t = 1.0
         cls.publish_clock(cls.t)
         # The camera 1 m above base_link, turned 180 degrees about x: its z axis points down.
@@ -121,15 +131,17 @@ class NavigatorTest(unittest.TestCase):
         m.clock = rospy.Time.from_sec(t)
         cls.clock.publish(m)
 
-    def step(self, wall_x=None):
-        """One lockstep step at the next grid time; returns the navigator's command for it."""
+    def step(self, wall_x=None, clouds=(camera_cloud,)):
+        """One lockstep step at the next grid time; returns the navigator's command for it. The
+        camera publishes each of `clouds` (functions of the stamp) in turn."""
         cls = type(self)
         cls.t = round(cls.t + STEP, 6)
         stamp = rospy.Time.from_sec(cls.t)
         cls.publish_clock(cls.t)
         cls.tf.publish(TFMessage([transform('odom', 'base_link', stamp, 0.0, 0.0, 0.0)]))
         cls.scan.publish(lidar_scan(stamp, wall_x))
-        cls.cloud.publish(camera_cloud(stamp))
+        for cloud in clouds:
+            cls.cloud.publish(cloud(stamp))
         k = round(cls.t / STEP)
         cls.wait_for(lambda: k in cls.steps, 'the step at %.1f s' % cls.t)
         return cls.steps[k]
@@ -171,7 +183,9 @@ class NavigatorTest(unittest.TestCase):
             step = self.step(wall_x=0.75)
             self.assertLess(step.twist.linear.x, 0.05)
 
-    def test_c_cloud_points_go_through_tf_and_the_height_band(self):
+    def obstacle_points_reported(self, expected, clouds=(camera_cloud,)):
+        """Steps with no wall (the scan adds no point) until a diagnostics report covers only them;
+        asserts it counts `expected` obstacle points per step."""
         with self.cond:
             del self.diagnostics[:]
 
@@ -179,19 +193,43 @@ class NavigatorTest(unittest.TestCase):
             for array in self.diagnostics:
                 for status in array.status:
                     values = {v.key: v.value for v in status.values}
-                    if values.get('obstacle points per step') == str(IN_BAND):
+                    if values.get('obstacle points per step') == str(expected):
                         return True
             return False
-        # Steps with no wall (the scan adds no point) until a diagnostics report covers only them.
         deadline = time.monotonic() + 20.0  # the report comes every wall second
         while time.monotonic() < deadline:
-            self.step()
+            self.step(clouds=clouds)
             with self.cond:
                 if reported():
                     break
         seen = [v.value for a in self.diagnostics for st in a.status for v in st.values
                 if v.key == 'obstacle points per step']
-        self.assertTrue(reported(), 'no report of %d obstacle points per step: %s' % (IN_BAND, seen))
+        self.assertTrue(reported(), 'no report of %d obstacle points per step: %s' % (expected, seen))
+
+    def test_c_cloud_points_go_through_tf_and_the_height_band(self):
+        self.obstacle_points_reported(IN_BAND)
+
+    def test_d_a_float64_cloud_with_padded_rows_gives_its_points(self):
+        # 30 in the band, not the other clouds' 40: the report is this cloud's.
+        self.obstacle_points_reported(30, clouds=(
+            lambda stamp: camera_cloud(stamp, in_band=30, dtype=np.float64, rows=4, row_padding=24),))
+
+    def test_e_a_malformed_cloud_is_dropped_with_its_reason_and_the_node_runs_on(self):
+        def overlapping_rows(stamp):
+            m = camera_cloud(stamp, rows=2)
+            m.row_step -= 1
+            return m
+        with self.cond:
+            del self.logs[:]
+        # The malformed cloud, then a good one with the same stamp: the step runs on the good one.
+        self.step(clouds=(overlapping_rows, camera_cloud))
+
+        def warned():
+            return any(m.level == Log.WARN and "dropped a malformed cloud on 'cloud'" in m.msg and
+                       'row_step 599 is smaller than width*point_step 600' in m.msg for m in self.logs)
+        self.wait_for(warned, 'the warning about the malformed cloud')
+        self.step()
+        self.obstacle_points_reported(IN_BAND, clouds=(overlapping_rows, camera_cloud))
 
 
 if __name__ == '__main__':
