@@ -102,6 +102,16 @@ PYBIND11_MODULE(depth_filter_scan_converter_core, m)
   // share is exported from here.
   m.def("self_filter_parameter_table", &laserscan_common::python::table<laserscan_common::SelfFilterParams>,
         "The field table of the self_filter block (the export)");
+  m.def(
+    "self_filter_shape_keys",
+    [] {
+      py::list out;
+      out.append(py::dict(py::arg("type") = "*", py::arg("keys") = laserscan_common::shapeCommonKeys()));
+      for (const auto& k : laserscan_common::shapeTypeKeys())
+        out.append(py::dict(py::arg("type") = k.type, py::arg("keys") = k.sizes));
+      return out;
+    },
+    "The keys of a listed shape (the export): type '*' the keys every type takes, then each type's sizes");
   params.def("validate", &P::validate, "Raises ParameterError (a ValueError) naming the bad parameter")
     .def("beam_count", [](const P& p) { return p.scan.beamCount(); })
     .def("no_return_value", [](const P& p) { return p.scan.noReturnValue(); })

@@ -1,7 +1,7 @@
 #include "laserscan_common/self_filter_parameters.hpp"
 
+#include <algorithm>
 #include <cmath>
-#include <set>
 
 #include <ros/package.h>
 #include <tf2/exceptions.h>
@@ -41,53 +41,56 @@ std::vector<double> numbers(XmlRpcValue& v, const std::string& name, int count)
   return out;
 }
 
-void onlyKeys(XmlRpcValue& v, const std::string& name, const std::set<std::string>& allowed)
-{
-  for (auto it = v.begin(); it != v.end(); ++it)
-    if (allowed.count(it->first) == 0)
-      throw ParameterError(name + "/" + it->first, "unknown key");
-}
-
-// {name, frame, type: box|cylinder|sphere, size: [x, y, z] (box), radius, length (cylinder),
-//  radius (sphere), origin: [x, y, z, roll, pitch, yaw], padding}
+// {name, frame, type: box|cylinder|sphere, its sizes (shapeTypeKeys), origin: [x, y, z, roll,
+//  pitch, yaw], padding}
 RobotShape readShape(XmlRpcValue& v, const std::string& name, double default_padding)
 {
   if (v.getType() != XmlRpcValue::TypeStruct)
     throw ParameterError(name, "must be a dictionary (frame, type, sizes, origin, padding)");
-  onlyKeys(v, name, { "name", "frame", "type", "size", "radius", "length", "origin", "padding" });
+  std::vector<std::string> sizes;  // every type's, in the table's order
+  for (const auto& type : shapeTypeKeys())
+    for (const auto& key : type.sizes)
+      if (std::find(sizes.begin(), sizes.end(), key) == sizes.end())
+        sizes.push_back(key);
+  for (auto it = v.begin(); it != v.end(); ++it)
+    if (std::count(shapeCommonKeys().begin(), shapeCommonKeys().end(), it->first) == 0 &&
+        std::count(sizes.begin(), sizes.end(), it->first) == 0)
+      throw ParameterError(name + "/" + it->first, "unknown key");
   RobotShape s;
   s.name = v.hasMember("name") ? text(v["name"], name + "/name") : name;
   if (!v.hasMember("frame"))
     throw ParameterError(name + "/frame", "is required (the tf frame the shape moves with)");
   s.frame = text(v["frame"], name + "/frame");
   const std::string type = v.hasMember("type") ? text(v["type"], name + "/type") : "";
-  auto need = [&](const char* key, bool wanted) {
+  const auto keys = std::find_if(shapeTypeKeys().begin(), shapeTypeKeys().end(),
+                                 [&](const ShapeTypeKeys& k) { return type == k.type; });
+  if (keys == shapeTypeKeys().end())
+    throw ParameterError(name + "/type", "must be box, cylinder or sphere");
+  // A type's sizes are required, the other types' refused (in the table's key order).
+  for (const std::string& key : sizes)
+  {
+    const bool wanted = std::count(keys->sizes.begin(), keys->sizes.end(), key) > 0;
     if (v.hasMember(key) != wanted)
       throw ParameterError(name + "/" + key, std::string(wanted ? "is required" : "is not used") + " for a " + type);
-  };
+  }
   if (type == "box")
   {
     s.kind = ShapeKind::kBox;
-    need("size", true), need("radius", false), need("length", false);
     const std::vector<double> d = numbers(v["size"], name + "/size", 3);
     s.half_extents = 0.5 * Eigen::Vector3d(d[0], d[1], d[2]);
   }
   else if (type == "cylinder")
   {
     s.kind = ShapeKind::kCylinder;
-    need("size", false), need("radius", true), need("length", true);
     const double r = number(v["radius"], name + "/radius");
     s.half_extents = Eigen::Vector3d(r, r, 0.5 * number(v["length"], name + "/length"));
   }
-  else if (type == "sphere")
+  else
   {
     s.kind = ShapeKind::kSphere;
-    need("size", false), need("radius", true), need("length", false);
     const double r = number(v["radius"], name + "/radius");
     s.half_extents = Eigen::Vector3d(r, r, r);
   }
-  else
-    throw ParameterError(name + "/type", "must be box, cylinder or sphere");
   if (v.hasMember("origin"))
   {
     const std::vector<double> o = numbers(v["origin"], name + "/origin", 6);

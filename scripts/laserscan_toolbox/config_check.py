@@ -238,8 +238,12 @@ def check_value(path, key, value):
 # The self filter block (laserscan_common's SelfFilterParams, the same for converters and merger);
 # a shape's own keys (a dictionary whose required keys depend on its type) are checked below.
 SELF_FILTER = {f["name"]: _key(f) for f in _TABLES["self_filter"]}
-SHAPE_SIZES = {"box": {"size"}, "cylinder": {"radius", "length"}, "sphere": {"radius"}}
-SHAPE_KEYS = {"name", "frame", "type", "size", "radius", "length", "origin", "padding"}
+SHAPE_SIZES = {e["type"]: set(e["keys"]) for e in _TABLES["self_filter_shape_keys"] if e["type"] != "*"}
+# Every type's sizes in the export's order (the order the node names a wrong one in).
+SHAPE_SIZE_ORDER = list(dict.fromkeys(k for e in _TABLES["self_filter_shape_keys"] if e["type"] != "*"
+                                      for k in e["keys"]))
+SHAPE_KEYS = set().union(*SHAPE_SIZES.values(),
+                         *(e["keys"] for e in _TABLES["self_filter_shape_keys"] if e["type"] == "*"))
 
 
 def _positive_numbers(path, value, count):
@@ -265,7 +269,7 @@ def _check_shape(path, shape):
     kind = shape.get("type")
     if kind not in SHAPE_SIZES:
         return problems + ["%s: must be box, cylinder or sphere" % _join(path, "type")]
-    for size in ("size", "radius", "length"):
+    for size in SHAPE_SIZE_ORDER:
         wanted = size in SHAPE_SIZES[kind]
         if (size in shape) != wanted:
             problems.append("%s: %s for a %s" % (_join(path, size), "is required" if wanted else "is not used", kind))

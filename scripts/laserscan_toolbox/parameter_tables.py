@@ -41,6 +41,8 @@ def export():
     tables = {"converter": converter_core.parameter_table(), "range": range_core.parameter_table(),
               "merger": merger_core.parameter_table(), "source": merger_core.source_parameter_table(),
               "self_filter": converter_core.self_filter_parameter_table(),
+              # Not a field table: a listed shape's keys ("*": every type's), for check_config.
+              "self_filter_shape_keys": converter_core.self_filter_shape_keys(),
               # One README table and one check_config block for the node's and the core's structs.
               "navigator": list(navigator_core.node_parameter_table()) + list(navigator_core.parameter_table())}
     return {kind: [dict(field) for field in fields] for kind, fields in tables.items()}

@@ -238,6 +238,28 @@ struct SelfFilterParams
   void validate() const;
 };
 
+/// The keys of one entry of the block's `shapes` list (a YAML dictionary): the reader refuses
+/// any other, and check_config's schema is exported from here. `sizes`: what the type requires
+/// (the other types' sizes it refuses); `size` is a list of 3 numbers, the others one number.
+struct ShapeTypeKeys
+{
+  const char* type;
+  std::vector<std::string> sizes;
+};
+inline const std::vector<ShapeTypeKeys>& shapeTypeKeys()
+{
+  static const std::vector<ShapeTypeKeys> keys{ { "box", { "size" } },
+                                                { "cylinder", { "radius", "length" } },
+                                                { "sphere", { "radius" } } };
+  return keys;
+}
+/// The keys every type takes: `frame` and `type` required, the others optional.
+inline const std::vector<std::string>& shapeCommonKeys()
+{
+  static const std::vector<std::string> keys{ "name", "frame", "type", "origin", "padding" };
+  return keys;
+}
+
 inline const char* typeName(const std::vector<RobotShape>&)
 {
   return "shape list";
