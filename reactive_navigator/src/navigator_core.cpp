@@ -42,6 +42,9 @@ namespace
 
 constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr double kProgress = 0.1;  // m closer to the goal that counts as progress
+// m: a plan this much longer than the step before's is a new way (round what closed the former):
+// progress is counted along it from where the robot is.
+constexpr double kDetour = 1.0;
 // The obstacle memory's cell (m): fine against the robot's 0.05 m secure distance, and coarse
 // enough that raw 3D at 300k points per camera keeps tens of thousands of cells, not millions.
 constexpr double kMemoryCell = 0.05;
@@ -521,11 +524,14 @@ Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints
   if (d.state == NavigationState::Navigating)
   {
     // Blocked: not kProgress closer to the goal for blocked_timeout; along the path when there is
-    // one (going round a table takes the robot farther from the goal for a while).
+    // one (going round a table takes the robot farther from the goal for a while), from the
+    // newest detour on (a person's trail or a closed door make the planner's way kDetour longer).
+    const double previous_path = d.remaining_path;
     d.remaining_path = d.planner ? d.followPath(time) : std::nan("");
     const double distance =
       std::isfinite(d.remaining_path) ? d.remaining_path : std::hypot(d.goal_x - pose.x, d.goal_y - pose.y);
-    if (distance < d.best_distance - kProgress || !std::isfinite(d.best_distance))
+    const bool detour = d.remaining_path > previous_path + kDetour;  // false while either is NaN
+    if (distance < d.best_distance - kProgress || !std::isfinite(d.best_distance) || detour)
     {
       d.best_distance = distance;
       d.progress_time = time;

@@ -26,9 +26,11 @@ struct DriveResult
   std::vector<Pose2> path;
 };
 
-// Drives the robot from (0, 0, 0) to the goal among the world points for at most `duration` s.
+// Drives the robot from (0, 0, 0) to the goal among the world points for at most `duration` s;
+// `late` joins them from `late_from` s into the run on (a door that closes, a trolley left).
 DriveResult drive(const NavigatorParameters& p, const ObstaclePoints& world, double goal_x, double goal_y,
-                  double duration = 30.0, double wall_pause_s = 0.0)
+                  double duration = 30.0, double wall_pause_s = 0.0, const ObstaclePoints& late = {},
+                  double late_from = INFINITY)
 {
   NavigatorCore core(p);
   core.setGoal(goal_x, goal_y);
@@ -43,10 +45,15 @@ DriveResult drive(const NavigatorParameters& p, const ObstaclePoints& world, dou
     {}
     seen.clear();
     const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
-    for (const auto& w : world)
+    for (const auto* points : { &world, &late })
     {
-      const double dx = w.x() - pose.x, dy = w.y() - pose.y;
-      seen.emplace_back(static_cast<float>(c * dx + s * dy), static_cast<float>(-s * dx + c * dy), w.z());
+      if (points == &late && t - 1.0 < late_from)
+        continue;
+      for (const auto& w : *points)
+      {
+        const double dx = w.x() - pose.x, dy = w.y() - pose.y;
+        seen.emplace_back(static_cast<float>(c * dx + s * dy), static_cast<float>(-s * dx + c * dy), w.z());
+      }
     }
     const Command command = core.step(t, pose, seen);
     run.path.push_back(pose);
@@ -332,6 +339,25 @@ TEST(NavigatorCore, TheLocalMinimumOfAUTrapIsLeftThroughThePlannersPath)
   const DriveResult planned = drive(p, uTrap(), 5.0, 0.0, 60.0);
   EXPECT_EQ(planned.state, NavigationState::Reached);
   EXPECT_GT(closestToTheU(planned), 0.44);
+}
+
+// A wall that closes the straight way 3 s into the run (from y = -8 m to 3 m at x = 3 m): the
+// planner's way round its end is some 4.7 m longer than what was left. That detour is progress, not
+// a blocked way: along the new path the robot gets no closer to the goal than it was for more than
+// blocked_timeout (10 s), and must not be stopped for it (it was, at y = 2.7 m).
+TEST(NavigatorCore, ALongerPathRoundAWallThatClosedTheWayIsNotBlocked)
+{
+  NavigatorParameters p;
+  p.blocked_timeout = 10.0;
+  p.planner_margin = 7.0;  // the search window reaches round the wall's end
+  ObstaclePoints wall;
+  addWallAlongY(wall, 3.0, -8.0, 3.0);
+  const DriveResult run = drive(p, {}, 6.0, 0.0, 90.0, 0.0, wall, 3.0);
+  EXPECT_EQ(run.state, NavigationState::Reached);
+  double north = -INFINITY;
+  for (const auto& pose : run.path)
+    north = std::max(north, pose.y);
+  EXPECT_GT(north, 3.0);  // round the wall's end
 }
 
 // validate() throws ParameterError naming `name`.

@@ -101,7 +101,11 @@ void visitFields(P& p, V&& visit)
   visit(p.path_count,
         ParamInfo("path_count", "", "candidate directions of the PTG (3 - 1001)").atLeast(3).atMost(1001));
   visit(p.blocked_timeout,
-        ParamInfo("blocked_timeout", "s", "no 0.1 m of progress for this long: `blocked`").above(0.0).finiteOnly());
+        ParamInfo("blocked_timeout", "s",
+                  "no 0.1 m of progress towards the goal (along the planner's path; a new path 1 m longer than "
+                  "the last, a detour, counts from where the robot is) for this long: `blocked`")
+          .above(0.0)
+          .finiteOnly());
   visit(p.self_padding, ParamInfo("self_padding", "m", "points within this of the robot's shape are its own body")
                           .atLeast(0.0)
                           .finiteOnly());
