@@ -100,7 +100,10 @@ struct alignas(64) Chunk
 // squared range and a scratch slot after the last beam, so that pass 3 never keeps it.
 // xs/ys/zs are overwritten with the point in the reference frame (for the filtered cloud).
 // kSelf: near_self marks the points to test against the self filter's shapes, here where the
-// point is in registers (a pass of its own over the chunk cost as much as the shape tests).
+// point is in registers (a pass of its own over the chunk cost as much as the shape tests): the
+// projected points within the x/y extent of the shapes' bounding box. Its z extent is left out
+// (the band already bounds the height; two comparisons less per point, about 5 % of the
+// kernel); the block test compares each shape's box in all three axes, so the result is the same.
 // Non-short-circuit & and selects only: no branch, so the compiler vectorizes it.
 template <bool kHole, bool kSelf>
 __attribute__((always_inline)) inline void transformChunk(std::uint32_t n, const Projector::Frame& f, Chunk& c)
@@ -142,9 +145,8 @@ __attribute__((always_inline)) inline void transformChunk(std::uint32_t n, const
     c.r2s[i] = ok ? r2 : inf;
     if (kSelf)
     {
-      const std::int32_t near =
-        -static_cast<std::int32_t>(ok & (xr >= f.self_lo[0]) & (xr <= f.self_hi[0]) & (yr >= f.self_lo[1]) &
-                                   (yr <= f.self_hi[1]) & (zr >= f.self_lo[2]) & (zr <= f.self_hi[2]));
+      const std::int32_t near = -static_cast<std::int32_t>(ok & (xr >= f.self_lo[0]) & (xr <= f.self_hi[0]) &
+                                                           (yr >= f.self_lo[1]) & (yr <= f.self_hi[1]));
       c.near_self[i] = near;
       any_near |= near;
     }
