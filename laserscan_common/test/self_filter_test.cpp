@@ -195,7 +195,7 @@ TEST(SelfFilterShapes, ChunkTestAgreesWithThePointTestAndSkipsInactivePoints)
 
 TEST(SelfFilterShapes, ChunkTestHoldsOnBothSidesOfZeroAndBesideNaNPoints)
 {
-  // markBlock compares the box of a block's points with the shapes' boxes in integer keys:
+  // markBlock compares the box of a block's active points (float min/max) with the shapes' boxes:
   // negative coordinates, -0 on a shape's bound at 0 and NaN (inactive) neighbours must not
   // make it skip a shape. Runs of points along x, as in a row of a depth image.
   lc::SelfFilter f({ shape(lc::ShapeKind::kBox, { 0.1, 0.1, 0.1 }, 0.0, "at_zero"),
