@@ -863,6 +863,81 @@ TEST(SelfFilter, TheSameWithIntensitiesAndTheRangeNoiseModel)
   EXPECT_EQ(intensities[binOf(p, -12.0 * kDeg)], 5.0f);
 }
 
+TEST(SelfFilter, KeptPointsAreTheBruteForceSelectionOnRandomScenesAndRobots)
+{
+  // Differential test of the projection with the self filter (the kernel's mark, the per-block
+  // culling, the exact test) against the plain projection and the brute-force per-point test:
+  // random rooms and random robots (1 to 12 boxes, cylinders and spheres at random poses in
+  // front of the camera), 300 x 60 clouds (a row is a chunk of 256 points and one of 44, whose
+  // last 12 are the per-point tail). The kept points with the filter must be exactly the kept
+  // points without it that contains() finds outside every shape. contains() runs here in this
+  // file's instructions, the projection in its own (maybe FMA) clone, so a point within a
+  // rounding error of a padded surface may be decided either way: a mismatch is accepted only
+  // for points within 0.1 mm of the surface (inside the shapes grown by 0.1 mm, outside the ones
+  // shrunk by 0.1 mm).
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::size_t removed_total = 0, kept_near_total = 0, border_total = 0;
+  for (int trial = 0; trial < 12; ++trial)
+  {
+    Scene scene;
+    scene.wall_x = 2.5 + 2.0 * unit(rng);
+    std::vector<laserscan_common::RobotShape> shapes, grown, shrunk;
+    std::vector<Eigen::Isometry3d> poses;
+    const int count = 1 + static_cast<int>(unit(rng) * 12);
+    for (int i = 0; i < count; ++i)
+    {
+      const Vector3d centre(0.6 + 1.5 * unit(rng), 1.4 * unit(rng) - 0.7, 0.1 + 0.9 * unit(rng));
+      const Vector3d half(0.05 + 0.15 * unit(rng), 0.05 + 0.15 * unit(rng), 0.05 + 0.25 * unit(rng));
+      scene.boxes.push_back({ centre - half, centre + half });  // something on the shape to see
+      laserscan_common::RobotShape s;
+      s.name = s.frame = "link" + std::to_string(i);
+      s.kind = static_cast<laserscan_common::ShapeKind>(i % 3);
+      s.half_extents = s.kind == laserscan_common::ShapeKind::kBox      ? half
+                       : s.kind == laserscan_common::ShapeKind::kSphere ? Vector3d::Constant(half.x())
+                                                                        : Vector3d(half.x(), half.x(), half.z());
+      s.padding = 0.02 * unit(rng) + 0.0002;
+      s.origin =
+        Eigen::Isometry3d(Eigen::AngleAxisd(3.0 * unit(rng), Vector3d(unit(rng), unit(rng), 1.0).normalized()));
+      shapes.push_back(s);
+      s.padding += 1e-4, grown.push_back(s);
+      s.padding -= 2e-4, shrunk.push_back(s);
+      poses.push_back(Eigen::Isometry3d(Eigen::Translation3d(centre)));
+    }
+    laserscan_common::SelfFilter filter(shapes, "shapes"), outer(grown, "grown"), inner(shrunk, "shrunk");
+    filter.setFramePoses(poses), outer.setFramePoses(poses), inner.setFramePoses(poses);
+    const Eigen::Isometry3d cam = cameraMount(0.4 + 0.5 * unit(rng), (5.0 + 25.0 * unit(rng)) * kDeg);
+    const TestCloud cloud = makeCloud<float>(render(scene, cam, 300, 60, 80 * kDeg), 300, 60);
+    dfsc::Parameters p;
+    dfsc::Projector proj(p);
+    std::vector<float> ranges, all, kept;
+    proj.project(cloud.view(), cam, ranges, nullptr, &all);
+    proj.project(cloud.view(), cam, ranges, nullptr, &kept, &filter);
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < all.size(); i += 3)
+    {
+      const float x = all[i], y = all[i + 1], z = all[i + 2];
+      const bool in = filter.contains(x, y, z);
+      const bool was_kept = k < kept.size() && kept[k] == x && kept[k + 1] == y && kept[k + 2] == z;
+      if (was_kept)
+        k += 3;
+      if (was_kept == !in)
+      {
+        removed_total += in ? 1 : 0;
+        kept_near_total += !in && outer.contains(x, y, z) ? 1 : 0;
+        continue;
+      }
+      ++border_total;
+      EXPECT_TRUE(outer.contains(x, y, z) && !inner.contains(x, y, z))
+        << "trial " << trial << ": point " << x << " " << y << " " << z << (in ? " inside but kept" : " removed");
+    }
+    EXPECT_EQ(k, kept.size()) << "trial " << trial << ": kept points that the plain projection does not keep";
+  }
+  EXPECT_GT(removed_total, 10000u);  // the robots do fill part of the views
+  EXPECT_GT(kept_near_total, 0u);    // and points just outside their shapes are kept
+  EXPECT_LE(border_total, 3u);       // rounding cases are rare
+}
+
 TEST(SelfFilter, AMovedLinkIsFilteredWhereItIsNow)
 {
   ArmScene arm;

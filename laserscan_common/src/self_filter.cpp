@@ -48,6 +48,11 @@ SelfFilter::SelfFilter(std::vector<RobotShape> shapes, const std::string& parame
       frames_.push_back(shapes_[i].frame);
   }
   posed_.resize(shapes_.size());
+  // Lanes without a shape are NaN: every comparison with them is false.
+  ShapeBoxLanes unused;
+  std::fill(&unused.lo[0][0], &unused.lo[0][0] + 3 * lanes::kLanes, std::numeric_limits<float>::quiet_NaN());
+  std::fill(&unused.hi[0][0], &unused.hi[0][0] + 3 * lanes::kLanes, std::numeric_limits<float>::quiet_NaN());
+  box_lanes_.assign((shapes_.size() + lanes::kLanes - 1) / lanes::kLanes, unused);
 }
 
 void SelfFilter::setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T_frame)
@@ -80,10 +85,16 @@ void SelfFilter::setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T
     const Eigen::Vector3d extent = reference_T_shape.linear().cwiseAbs() * h;
     p.bounds.lo = (centre - extent).cast<float>();
     p.bounds.hi = (centre + extent).cast<float>();
+    p.round = shape.kind != ShapeKind::kBox;
+    // The culling box of the block test, a little larger than the shape's box: the exact test
+    // runs in float with a rounded transform, so a point it finds inside may lie a rounding
+    // error outside the box; with the margin, culling never drops a shape contains() would find.
+    const Eigen::Vector3d margin = Eigen::Vector3d::Constant(1e-5) + 1e-5 * (centre.cwiseAbs() + extent);
+    ShapeBoxLanes& boxes = box_lanes_[i / lanes::kLanes];
     for (int axis = 0; axis < 3; ++axis)
     {
-      p.key_lo[axis] = orderedKey(p.bounds.lo(axis));
-      p.key_hi[axis] = orderedKey(p.bounds.hi(axis));
+      boxes.lo[axis][i % lanes::kLanes] = static_cast<float>(centre(axis) - extent(axis) - margin(axis));
+      boxes.hi[axis][i % lanes::kLanes] = static_cast<float>(centre(axis) + extent(axis) + margin(axis));
     }
     bounds_.extend(p.bounds);
   }

@@ -195,7 +195,7 @@ TEST(SelfFilterShapes, ChunkTestAgreesWithThePointTestAndSkipsInactivePoints)
 
 TEST(SelfFilterShapes, ChunkTestHoldsOnBothSidesOfZeroAndBesideNaNPoints)
 {
-  // markBlock compares the box of a block's points with the shapes' boxes in integer keys:
+  // markBlock compares the box of a block's active points (float min/max) with the shapes' boxes:
   // negative coordinates, -0 on a shape's bound at 0 and NaN (inactive) neighbours must not
   // make it skip a shape. Runs of points along x, as in a row of a depth image.
   lc::SelfFilter f({ shape(lc::ShapeKind::kBox, { 0.1, 0.1, 0.1 }, 0.0, "at_zero"),
@@ -242,6 +242,75 @@ TEST(SelfFilterShapes, ChunkTestHoldsOnBothSidesOfZeroAndBesideNaNPoints)
   EXPECT_NE(inside[n - block + 5], 0);
   EXPECT_GT(negative_inside, 100u);  // the runs do reach the shapes on the negative side
   EXPECT_LT(expected_inside, n / 2);
+}
+
+TEST(SelfFilterShapes, BlockTestEqualsTheBruteForcePointTestOnRandomCloudsAndShapes)
+{
+  // Differential test of the block culling (the box of a block's active points against 8
+  // shapes' boxes at once, the exact test only for the shapes it meets): random robots of 1 to
+  // 19 shapes (more than one group of 8) of every kind at random poses, random point counts
+  // (blocks and a tail), points in runs along random lines (as rows of a depth image: blocks
+  // then meet few shapes) and scattered ones, random inactive points, some NaN. Every point must
+  // come out as the brute-force test says: active and inside one of the shapes.
+  std::mt19937 rng(2026);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::size_t inside_total = 0, outside_near_total = 0;
+  for (int trial = 0; trial < 60; ++trial)
+  {
+    const int count = 1 + static_cast<int>(unit(rng) * 19);
+    std::vector<lc::RobotShape> shapes;
+    std::vector<Isometry3d> poses;
+    for (int i = 0; i < count; ++i)
+    {
+      const auto kind = static_cast<lc::ShapeKind>(static_cast<int>(unit(rng) * 3) % 3);
+      const double a = 0.02 + 0.2 * unit(rng), c = 0.02 + 0.3 * unit(rng);
+      const Vector3d half = kind == lc::ShapeKind::kBox      ? Vector3d(a, 0.02 + 0.2 * unit(rng), c)
+                            : kind == lc::ShapeKind::kSphere ? Vector3d(a, a, a)
+                                                             : Vector3d(a, a, c);
+      shapes.push_back(shape(kind, half, 0.03 * unit(rng), "link" + std::to_string(i)));
+      poses.push_back(pose({ 2.0 * unit(rng) - 0.5, 2.0 * unit(rng) - 1.0, 1.5 * unit(rng) - 0.3 }, 6.0 * unit(rng),
+                           6.0 * unit(rng), 6.0 * unit(rng)));
+    }
+    lc::SelfFilter f(shapes, "shapes");
+    f.setFramePoses(poses);
+    const std::size_t n = 200 + static_cast<std::size_t>(unit(rng) * 3000);
+    std::vector<float> xs(n), ys(n), zs(n);
+    std::vector<std::int32_t> active(n), inside(n, 0);
+    Vector3d p(0, 0, 0), step(0, 0, 0);
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      if (i % 97 == 0)
+      {
+        // A new run: from a random point (near a random shape half of the time) along a line.
+        const std::size_t s = static_cast<std::size_t>(unit(rng) * count) % static_cast<std::size_t>(count);
+        p = unit(rng) < 0.5 ? poses[s].translation() + Vector3d(0.3 * unit(rng) - 0.15, -0.3, 0.2 * unit(rng) - 0.1)
+                            : Vector3d(2.5 * unit(rng) - 0.8, 2.5 * unit(rng) - 1.3, 2.0 * unit(rng) - 0.5);
+        step = Vector3d(0.004 * unit(rng) - 0.002, 0.006, 0.004 * unit(rng) - 0.002);
+      }
+      p += step;
+      const bool scattered = unit(rng) < 0.1;
+      const Vector3d q = scattered ? Vector3d(2.5 * unit(rng) - 0.8, 2.5 * unit(rng) - 1.3, 2.0 * unit(rng) - 0.5) : p;
+      const bool nan = unit(rng) < 0.03;
+      xs[i] = nan ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(q.x());
+      ys[i] = static_cast<float>(q.y()), zs[i] = static_cast<float>(q.z());
+      active[i] = !nan && unit(rng) < 0.9 ? 1 : 0;
+    }
+    f.markInside(n, xs.data(), ys.data(), zs.data(), active.data(), inside.data());
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      bool want = false;
+      for (const lc::PosedShape& s : f.posed())
+        want = want || lc::insidePosed(s, xs[i], ys[i], zs[i]);
+      outside_near_total += !want && f.bounds().contains(xs[i], ys[i], zs[i]) ? 1 : 0;
+      want = want && active[i] != 0;
+      inside_total += want ? 1 : 0;
+      ASSERT_EQ(inside[i] != 0, want) << "trial " << trial << ", point " << i << " of " << n << ": " << xs[i] << " "
+                                      << ys[i] << " " << zs[i];
+    }
+  }
+  // The sample does exercise both answers near the shapes.
+  EXPECT_GT(inside_total, 5000u);
+  EXPECT_GT(outside_near_total, 5000u);
 }
 
 TEST(SelfFilterShapes, BadShapesNameThemselves)

@@ -64,30 +64,79 @@ struct Bounds
   }
 };
 
-/// A float as an int32 that orders as the floats do (-0 taken as +0; not for NaN): min/max
-/// reductions over these vectorize, float ones do not without -ffinite-math-only (which the
-/// converters' NaN tests forbid).
-__attribute__((always_inline)) inline std::int32_t orderedKey(float v)
+/// Eight floats or ints in one value (GCC/Clang vector extensions): the self filter's block
+/// test is written with them, so that it compiles to the instruction set of the function that
+/// inlines it (AVX2 or AVX-512 in a target_clones kernel, SSE2 in the default clone) without
+/// relying on the auto-vectorizer for min/max and horizontal reductions (float min/max
+/// reductions do not auto-vectorize without -ffinite-math-only, which the converters' NaN tests
+/// forbid; `a < b ? a : b` on these types is one minps, exact for the non-NaN values used here).
+// Only inlined, never passed between translation units: the ABI note (-Wpsabi) on vector
+// arguments and results does not apply.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wpsabi"
+namespace lanes
 {
-  const float normalized = v + 0.0f;  // -0 -> +0: equal floats get equal keys
-  std::int32_t bits;
-  std::memcpy(&bits, &normalized, sizeof bits);
-  return bits ^ ((bits >> 31) & 0x7fffffff);
+constexpr std::size_t kLanes = 8;
+typedef float Floats __attribute__((vector_size(32)));
+typedef std::int32_t Ints __attribute__((vector_size(32)));
+
+__attribute__((always_inline)) inline void load(Floats& v, const float* p)
+{
+  std::memcpy(&v, p, sizeof v);
 }
+__attribute__((always_inline)) inline void load(Ints& v, const std::int32_t* p)
+{
+  std::memcpy(&v, p, sizeof v);
+}
+/// |q| <= h per lane, as std::abs(q) <= h (false for NaN).
+__attribute__((always_inline)) inline void andAbsAtMost(Ints& mask, const Floats& q, float h)
+{
+  mask &= reinterpret_cast<Floats>(reinterpret_cast<Ints>(q) & 0x7fffffff) <= h;
+}
+/// The smallest and the largest lane.
+__attribute__((always_inline)) inline float minLane(const Floats& x)
+{
+  Floats v = x, w = __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
+  v = v < w ? v : w;
+  w = __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5);
+  v = v < w ? v : w;
+  w = __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6);
+  v = v < w ? v : w;
+  return v[0];
+}
+__attribute__((always_inline)) inline float maxLane(const Floats& x)
+{
+  Floats v = x, w = __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
+  v = v > w ? v : w;
+  w = __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5);
+  v = v > w ? v : w;
+  w = __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6);
+  v = v > w ? v : w;
+  return v[0];
+}
+/// OR of the lanes.
+__attribute__((always_inline)) inline std::int32_t orLanes(const Ints& x)
+{
+  Ints v = x;
+  v |= __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
+  v |= __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5);
+  v |= __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6);
+  return v[0];
+}
+}  // namespace lanes
 
 /// One shape at its current pose, in the form the point test needs (float, reference -> shape).
 /// Every kind is one formula: |q| <= h per axis and radial_weight * (qx^2 + qy^2) +
 /// axial_weight * qz^2 <= radius2, where q is the point in the shape's frame; a box has both
-/// weights 0, a cylinder radial 1, a sphere both 1. One branch-free loop then vectorizes.
+/// weights 0, a cylinder radial 1, a sphere both 1.
 struct PosedShape
 {
   float r[9];  ///< rotation reference -> shape, row-major
   float t[3];  ///< translation reference -> shape
   float h[3];  ///< padded half extents
   float radius2, radial_weight, axial_weight;
+  bool round;     ///< a cylinder or a sphere (for a box the round term is 0 <= 0 whenever |q| <= h)
   Bounds bounds;  ///< of the padded shape, in the reference frame
-  /// bounds.lo and bounds.hi as orderedKey (x, y, z), for markBlock's integer box test.
-  std::int32_t key_lo[3], key_hi[3];
 };
 
 /// The test of one point against one posed shape (the whole filter is the OR over shapes).
@@ -99,6 +148,14 @@ inline bool insidePosed(const PosedShape& s, float x, float y, float z)
   const float round = s.radial_weight * (qx * qx + qy * qy) + s.axial_weight * (qz * qz);
   return (std::abs(qx) <= s.h[0]) & (std::abs(qy) <= s.h[1]) & (std::abs(qz) <= s.h[2]) & (round <= s.radius2);
 }
+
+/// The shapes' boxes of up to lanes::kLanes shapes, one lane each (unused lanes NaN: they meet
+/// no box), for the block test: one vector comparison tests a block's box against 8 shapes.
+struct alignas(32) ShapeBoxLanes
+{
+  float lo[3][lanes::kLanes];
+  float hi[3][lanes::kLanes];
+};
 
 /// The shapes of one robot, their frames, and their poses for the message being filtered.
 /// Not thread-safe: each user (converter, merger source) keeps its own copy and sets the poses
@@ -135,94 +192,197 @@ public:
     return false;
   }
 
-  /// For n points (structure of arrays): inside[i] = 1 if point i is inside a padded shape,
-  /// else left as it is; points with active[i] == 0 are not tested (active[i] is 0 or 1). Returns whether any point was
-  /// inside. Inline, so that a caller's vectorized (target_clones) function inlines it with its
-  /// own instruction set; per block of kMarkBlock points, a shape is tested only when its
-  /// bounding box meets the box around the block's active points.
+  /// For n points (structure of arrays): inside[i] = 1 if point i is active and inside a padded
+  /// shape (insidePosed), else left as it is; points with active[i] == 0 are not tested. For
+  /// active points inside bounds() this is contains(). Returns whether any point was inside.
+  /// Inline, so that a caller's vectorized (target_clones) function inlines it with its own
+  /// instruction set; per block of kMarkBlock points, a shape is tested only when its bounding
+  /// box meets the box around the block's active points.
   inline bool markInside(std::size_t n, const float* xs, const float* ys, const float* zs, const std::int32_t* active,
                          std::int32_t* inside) const;
+
+  /// The same test for active[i] 0 or -1 (all bits set: a vector comparison's mask, as the
+  /// converters' kernels write it), handing the result to `hit(first, mask)`: lane j of mask is
+  /// -1 when point first + j is active and inside, else 0. Called for the vectors of lanes::kLanes points of each block
+  /// that holds an inside point, and for a tail point (the last n % kMarkBlock) that is inside
+  /// with only lane 0 set; lanes at or beyond n are always 0 (and must not be written).
+  template <class Hit>
+  inline bool forEachInside(std::size_t n, const float* xs, const float* ys, const float* zs,
+                            const std::int32_t* active, Hit&& hit) const;
 
   /// Points per block of markInside.
   static constexpr std::size_t kMarkBlock = 32;
 
 private:
+  template <class Hit>
+  inline std::int32_t markBlock(const float* bx, const float* by, const float* bz, const std::int32_t* ba,
+                                std::size_t first, Hit& hit) const;
+
   std::vector<RobotShape> shapes_;
   std::vector<std::string> frames_;
   std::vector<std::size_t> frame_of_shape_;
   std::vector<PosedShape> posed_;
+  std::vector<ShapeBoxLanes> box_lanes_;  ///< the shapes' culling boxes, 8 shapes per entry
   Bounds bounds_;
 };
 
-/// markInside on one block of m points (m = kMarkBlock known at compile time for full blocks:
-/// the loops then have no remainder). The box around the block's active points (one vectorized
-/// pass, integer min/max reductions) is compared with each shape's box in scalar code, and the
-/// exact test runs only for the shapes whose box it meets: a per-shape test over the block's
-/// points would cost a horizontal reduction and a branch per shape and block.
-__attribute__((always_inline)) inline std::int32_t markBlock(const std::vector<PosedShape>& shapes, std::size_t m,
-                                                             const float* bx, const float* by, const float* bz,
-                                                             const std::int32_t* ba, std::int32_t* bi)
+/// One full block of kMarkBlock points: the box around its active points (vector min/max over
+/// its 4 vectors, then across lanes), compared with 8 shapes' culling boxes at once; the exact
+/// test runs only for the shapes whose box it meets (a box without the round term). Inactive
+/// points (maybe NaN) are left out of the box and never marked.
+template <class Hit>
+__attribute__((always_inline)) inline std::int32_t SelfFilter::markBlock(const float* bx, const float* by,
+                                                                         const float* bz, const std::int32_t* ba,
+                                                                         std::size_t first, Hit& hit) const
 {
-  constexpr std::int32_t kMax = std::numeric_limits<std::int32_t>::max();
-  constexpr std::int32_t kMin = std::numeric_limits<std::int32_t>::min();
-  std::int32_t lx = kMax, ly = kMax, lz = kMax, hx = kMin, hy = kMin, hz = kMin;
-  for (std::size_t i = 0; i < m; ++i)
+  using lanes::Floats;
+  using lanes::Ints;
+  constexpr std::size_t kL = lanes::kLanes;
+  constexpr std::size_t kV = kMarkBlock / kL;
+  Ints act[kV];
+  Ints any_active = Ints{};
+#pragma GCC unroll 4
+  for (std::size_t v = 0; v < kV; ++v)
   {
-    // Inactive points (maybe NaN) give keys that change neither minimum nor maximum.
-    const std::int32_t on = -ba[i];  // all bits set when active
-    const std::int32_t kx = orderedKey(bx[i]), ky = orderedKey(by[i]), kz = orderedKey(bz[i]);
-    lx = std::min(lx, (kx & on) | (kMax & ~on));
-    ly = std::min(ly, (ky & on) | (kMax & ~on));
-    lz = std::min(lz, (kz & on) | (kMax & ~on));
-    hx = std::max(hx, (kx & on) | (kMin & ~on));
-    hy = std::max(hy, (ky & on) | (kMin & ~on));
-    hz = std::max(hz, (kz & on) | (kMin & ~on));
+    lanes::load(act[v], ba + v * kL);
+    any_active |= act[v];
   }
-  if (lx > hx)
-    return 0;  // no active point
-  std::int32_t any = 0;
-  for (const PosedShape& s : shapes)
+  if (!lanes::orLanes(any_active))
+    return 0;
+  const float inf = std::numeric_limits<float>::infinity();
+  Floats lx = Floats{} + inf, ly = lx, lz = lx, hx = -lx, hy = hx, hz = hx;
+#pragma GCC unroll 4
+  for (std::size_t v = 0; v < kV; ++v)
   {
-    if ((s.key_lo[0] > hx) | (s.key_hi[0] < lx) | (s.key_lo[1] > hy) | (s.key_hi[1] < ly) | (s.key_lo[2] > hz) |
-        (s.key_hi[2] < lz))
-      continue;
-    // Locals, so that the compiler keeps them in registers across the vectorized loop.
-    const float r0 = s.r[0], r1 = s.r[1], r2 = s.r[2], r3 = s.r[3], r4 = s.r[4], r5 = s.r[5];
-    const float r6 = s.r[6], r7 = s.r[7], r8 = s.r[8], t0 = s.t[0], t1 = s.t[1], t2 = s.t[2];
-    const float h0 = s.h[0], h1 = s.h[1], h2 = s.h[2];
-    const float radius2 = s.radius2, wr = s.radial_weight, wa = s.axial_weight;
-    for (std::size_t i = 0; i < m; ++i)
+    Floats x, y, z;
+    lanes::load(x, bx + v * kL), lanes::load(y, by + v * kL), lanes::load(z, bz + v * kL);
+    const Floats xl = act[v] ? x : lx, yl = act[v] ? y : ly, zl = act[v] ? z : lz;
+    const Floats xh = act[v] ? x : hx, yh = act[v] ? y : hy, zh = act[v] ? z : hz;
+    lx = xl < lx ? xl : lx, ly = yl < ly ? yl : ly, lz = zl < lz ? zl : lz;
+    hx = xh > hx ? xh : hx, hy = yh > hy ? yh : hy, hz = zh > hz ? zh : hz;
+  }
+  // The shape tests below load the points again rather than keep the 12 vectors of the box
+  // pass live (they would be spilled to the stack and reloaded, at twice the instructions).
+  __asm__ volatile("" ::: "memory");
+  const float blx = lanes::minLane(lx), bly = lanes::minLane(ly), blz = lanes::minLane(lz);
+  const float bhx = lanes::maxLane(hx), bhy = lanes::maxLane(hy), bhz = lanes::maxLane(hz);
+  const Ints lane_bit = { 1, 2, 4, 8, 16, 32, 64, 128 };
+  Ints inside[kV];
+#pragma GCC unroll 4
+  for (std::size_t v = 0; v < kV; ++v)
+    inside[v] = Ints{};
+  for (std::size_t g = 0; g < box_lanes_.size(); ++g)
+  {
+    const ShapeBoxLanes& b = box_lanes_[g];
+    Floats lo0, lo1, lo2, hi0, hi1, hi2;
+    lanes::load(lo0, b.lo[0]), lanes::load(lo1, b.lo[1]), lanes::load(lo2, b.lo[2]);
+    lanes::load(hi0, b.hi[0]), lanes::load(hi1, b.hi[1]), lanes::load(hi2, b.hi[2]);
+    const Ints meets = (lo0 <= bhx) & (hi0 >= blx) & (lo1 <= bhy) & (hi1 >= bly) & (lo2 <= bhz) & (hi2 >= blz);
+    for (std::uint32_t bits = static_cast<std::uint32_t>(lanes::orLanes(meets & lane_bit)); bits != 0; bits &= bits - 1)
     {
-      const float x = bx[i], y = by[i], z = bz[i];
-      const float qx = r0 * x + r1 * y + r2 * z + t0;
-      const float qy = r3 * x + r4 * y + r5 * z + t1;
-      const float qz = r6 * x + r7 * y + r8 * z + t2;
-      const float round = wr * (qx * qx + qy * qy) + wa * (qz * qz);
-      const std::int32_t h =
-        ba[i] & (std::abs(qx) <= h0) & (std::abs(qy) <= h1) & (std::abs(qz) <= h2) & (round <= radius2);
-      bi[i] |= h;
-      any |= h;
+      const PosedShape& s = posed_[g * kL + static_cast<std::size_t>(__builtin_ctz(bits))];
+      const float r0 = s.r[0], r1 = s.r[1], r2 = s.r[2], r3 = s.r[3], r4 = s.r[4], r5 = s.r[5];
+      const float r6 = s.r[6], r7 = s.r[7], r8 = s.r[8], t0 = s.t[0], t1 = s.t[1], t2 = s.t[2];
+      const float h0 = s.h[0], h1 = s.h[1], h2 = s.h[2];
+      if (!s.round)
+      {
+#pragma GCC unroll 4
+        for (std::size_t v = 0; v < kV; ++v)
+        {
+          Floats x, y, z;
+          lanes::load(x, bx + v * kL), lanes::load(y, by + v * kL), lanes::load(z, bz + v * kL);
+          const Floats qx = r0 * x + r1 * y + r2 * z + t0;
+          const Floats qy = r3 * x + r4 * y + r5 * z + t1;
+          const Floats qz = r6 * x + r7 * y + r8 * z + t2;
+          Ints in = act[v];
+          lanes::andAbsAtMost(in, qx, h0), lanes::andAbsAtMost(in, qy, h1), lanes::andAbsAtMost(in, qz, h2);
+          inside[v] |= in;
+        }
+      }
+      else
+      {
+        const float radius2 = s.radius2, wr = s.radial_weight, wa = s.axial_weight;
+#pragma GCC unroll 4
+        for (std::size_t v = 0; v < kV; ++v)
+        {
+          Floats x, y, z;
+          lanes::load(x, bx + v * kL), lanes::load(y, by + v * kL), lanes::load(z, bz + v * kL);
+          const Floats qx = r0 * x + r1 * y + r2 * z + t0;
+          const Floats qy = r3 * x + r4 * y + r5 * z + t1;
+          const Floats qz = r6 * x + r7 * y + r8 * z + t2;
+          const Floats round = wr * (qx * qx + qy * qy) + wa * (qz * qz);
+          Ints in = act[v] & (round <= radius2);
+          lanes::andAbsAtMost(in, qx, h0), lanes::andAbsAtMost(in, qy, h1), lanes::andAbsAtMost(in, qz, h2);
+          inside[v] |= in;
+        }
+      }
     }
   }
-  return any;
+  Ints any_inside = Ints{};
+#pragma GCC unroll 4
+  for (std::size_t v = 0; v < kV; ++v)
+    any_inside |= inside[v];
+  if (!lanes::orLanes(any_inside))
+    return 0;
+#pragma GCC unroll 4
+  for (std::size_t v = 0; v < kV; ++v)
+    hit(first + v * kL, inside[v]);
+  return 1;
+}
+
+template <class Hit>
+__attribute__((always_inline)) inline bool SelfFilter::forEachInside(std::size_t n, const float* xs, const float* ys,
+                                                                     const float* zs, const std::int32_t* active,
+                                                                     Hit&& hit) const
+{
+  // Points come in runs that lie close together (a row of a depth image): per block of
+  // kMarkBlock points, a shape is tested only when its box meets the box around the block's
+  // active points, so that a point near one link is tested against that link, not all of them.
+  std::int32_t any = 0;
+  const std::size_t full = n - n % kMarkBlock;
+  for (std::size_t b0 = 0; b0 < full; b0 += kMarkBlock)
+    any |= markBlock(xs + b0, ys + b0, zs + b0, active + b0, b0, hit);
+  // The tail (fewer than kMarkBlock points): one point at a time, the same test.
+  for (std::size_t i = full; i < n; ++i)
+  {
+    if (active[i] == 0)
+      continue;
+    for (const PosedShape& s : posed_)
+    {
+      if (insidePosed(s, xs[i], ys[i], zs[i]))
+      {
+        lanes::Ints one = {};
+        one[0] = -1;
+        hit(i, one);
+        any = 1;
+        break;
+      }
+    }
+  }
+  return any != 0;
 }
 
 __attribute__((always_inline)) inline bool SelfFilter::markInside(std::size_t n, const float* xs, const float* ys,
                                                                   const float* zs, const std::int32_t* active,
                                                                   std::int32_t* inside) const
 {
-  // Points come in runs that lie close together (a row of a depth image): per block of
-  // kMarkBlock points, a shape is tested only when its bounding box meets the box around the
-  // block's active points, so that a point near one link is tested against that link, not all
-  // of them. Every loop is branch-free and vectorizes (integer reductions only).
-  std::int32_t any = 0;
-  std::size_t b0 = 0;
-  for (; b0 + kMarkBlock <= n; b0 += kMarkBlock)
-    any |= markBlock(posed_, kMarkBlock, xs + b0, ys + b0, zs + b0, active + b0, inside + b0);
-  if (b0 < n)
-    any |= markBlock(posed_, n - b0, xs + b0, ys + b0, zs + b0, active + b0, inside + b0);
-  return any != 0;
+  // active 0/1 -> 0/-1, one block at a time.
+  bool any = false;
+  for (std::size_t b0 = 0; b0 < n; b0 += kMarkBlock)
+  {
+    const std::size_t m = std::min(kMarkBlock, n - b0);
+    std::int32_t mask[kMarkBlock];
+    for (std::size_t i = 0; i < m; ++i)
+      mask[i] = active[b0 + i] != 0 ? -1 : 0;
+    any |= forEachInside(m, xs + b0, ys + b0, zs + b0, mask, [&](std::size_t first, const lanes::Ints& in) {
+      for (std::size_t j = 0; j < lanes::kLanes && first + j < m; ++j)
+        inside[b0 + first + j] |= in[j] & 1;
+    });
+  }
+  return any;
 }
+
+#pragma GCC diagnostic pop
 
 /// The `self_filter` block of a node's private parameters (every key optional), as the
 /// converters and the merger read it (self_filter_parameters.hpp).
