@@ -117,11 +117,20 @@ def test_the_check_fails_on_a_3d_contact_or_cpu_and_reports_the_other_targets():
     runs = [row("unified", 50000, 15.0, 25.0, 20.5), row("raw_3d", 50000, 160.0, 160.0, 20.0),
             row("lidar_only", 50000, 7.0, 7.0, c3d=1)]
     assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == []
-    # Unified not reached: reported missed, but the check holds (no 3D contact, CPU below raw).
-    runs[0].update(reached=False, time_to_goal_s=None)
+    # A person walked into the robot, and it took 10 % longer than raw 3D: reported missed, but
+    # the check holds.
+    runs[0].update(collisions=1, time_to_goal_s=22.0)
     res = navigation.targets(runs)
     assert res["unified_reached_without_collision"]["met"] is False
+    assert res["unified_time_within_5_percent_of_raw_3d"]["met"] is False
     assert navigation.check({"runs": runs, "targets": res}) == []
+    # Unified not reached, or lidar-only not touching the table top: the check fails.
+    runs[0].update(reached=False, time_to_goal_s=None)
+    assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == ["unified_reached_goal"]
+    runs[0].update(reached=True, time_to_goal_s=20.5, collisions=0)
+    runs[2]["collisions_3d"] = 0
+    assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == ["lidar_only_misses_3d_obstacle"]
+    runs[2]["collisions_3d"] = 1
     # A unified run touching a table top fails it, as does more navigator CPU than raw 3D.
     runs[0]["collisions_3d"] = 1
     assert navigation.check({"runs": runs, "targets": navigation.targets(runs)}) == ["unified_no_3d_contact"]

@@ -195,6 +195,10 @@ def targets(runs):
         "figure": ["%s %dk: %s, %d collisions" % (r["route"], r["points_per_camera"] // 1000,
                                                  "reached" if r["reached"] else "not reached", r["collisions"])
                    for r in uni]}
+    res["unified_reached_goal"] = {
+        "met": bool(uni) and all(r["reached"] for r in uni),
+        "figure": ["%s %dk: %s" % (r["route"], r["points_per_camera"] // 1000, "reached" if r["reached"] else "not reached")
+                   for r in uni]}
     res["unified_no_3d_contact"] = {
         "met": bool(uni) and all(r["collisions_3d"] == 0 for r in uni),
         "figure": [r["collisions_3d"] for r in uni]}
@@ -235,10 +239,12 @@ def targets(runs):
 
 
 #: The targets --check (scripts/demo) requires of the runs (names, or their start before the route):
-#: what the unified scan must never give up (no 3D obstacle touched, less CPU than raw 3D). The
-#: issue's other targets (reached, time within 5 %, the lidar-only miss) are reported met or MISSED
-#: without failing the demo while they are open (docs/navigation.md: why they are missed).
-CHECKED = ("unified_no_3d_contact", "navigator_cpu_below_raw", "system_cpu_below_raw_from_50k")
+#: the unified navigator reaches the goal without touching a 3D obstacle, for less CPU than raw 3D,
+#: and the lidar-only one touches what it cannot see. The issue's stricter targets (no collision at
+#: all: the crosser walks into the robot in every mode; time within 5 % of raw 3D's: 1.05 at 50k)
+#: are reported met or MISSED without failing the demo (docs/navigation.md).
+CHECKED = ("unified_reached_goal", "unified_no_3d_contact", "navigator_cpu_below_raw",
+           "system_cpu_below_raw_from_50k", "lidar_only_misses_3d_obstacle")
 
 
 def check(res):
@@ -325,9 +331,10 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0, help="the simulator's seed (default 0)")
     ap.add_argument("--timeout", type=float, default=60.0, help="simulated s after the goal (default 60)")
     ap.add_argument("--check", action="store_true",
-                    help="exit 1 unless the unified runs touch no 3D obstacle and the navigator's and the "
-                         "whole system's CPU on the unified scan are below raw 3D's (scripts/demo's "
-                         "threshold); the other targets are reported met or MISSED")
+                    help="exit 1 unless the unified runs reach the goal touching no 3D obstacle, the "
+                         "navigator's and the whole system's CPU on the unified scan are below raw 3D's "
+                         "and the lidar-only runs touch a 3D obstacle (scripts/demo's threshold); the "
+                         "other targets are reported met or MISSED")
     a = ap.parse_args(argv)
     points = a.points or (QUICK_POINTS if a.quick else POINTS)
     routes = a.routes or (("table",) if a.quick else ROUTES)
