@@ -63,7 +63,7 @@ def navigator_config(mode):
     elif mode == "unified_sonar":
         cfg.update(mode="2d", scan_topics=["/merged_scan"], cloud_topics=[])
     else:
-        raise ValueError("unknown mode %r (one of %s)" % (mode, ", ".join(MODES)))
+        raise ValueError("unknown mode %r (one of %s)" % (mode, ", ".join(MODES + EXTRA_MODES)))
     return cfg
 
 
