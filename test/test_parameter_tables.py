@@ -7,6 +7,7 @@ agree with it: each of these fails when the C++ table changes and the copy is no
 """
 import math
 import os
+import re
 import sys
 import types
 
@@ -125,6 +126,34 @@ def test_cfg_check_sees_a_wrong_default_type_and_name():
     wrong = [dict(entries[0], default=entries[0]["default"] + 1.0), dict(entries[1], kind="int"),
              dict(entries[2], name="min_hieght")]
     assert len(cfg_problems(wrong, table)) == 3
+
+
+# Each node's commented example YAML (config/<node>.yaml of its package) and the tables it shows.
+EXAMPLE_YAMLS = {
+    "depth_filter_scan_converter/config/depth_filter_scan_converter.yaml": ("converter",),
+    "depth_filter_scan_converter/config/range_scan_converter.yaml": ("range",),
+    "multi_laserscan_merger/config/multi_laserscan_merger.yaml": ("merger", "source"),
+    "reactive_navigator/config/reactive_navigator.yaml": ("navigator",),
+}
+
+
+def yaml_keys(text):
+    """Every `key:` of a YAML text, set or commented out (`# key: value`), in blocks and flow maps."""
+    return set(re.findall(r"(?:^|[{,\s])([a-z_][a-z0-9_]*):(?=\s)", text, re.M))
+
+
+@pytest.mark.parametrize("path", sorted(EXAMPLE_YAMLS))
+def test_every_parameter_is_in_its_nodes_example_yaml(path):
+    with open(os.path.join(REPO, path)) as f:
+        keys = yaml_keys(f.read())
+    tables = pt.load()
+    missing = [f["name"] for kind in EXAMPLE_YAMLS[path] for f in tables[kind] if f["name"] not in keys]
+    assert missing == [], "%s does not show %s" % (path, missing)
+
+
+def test_yaml_keys_see_a_missing_parameter():
+    assert yaml_keys("a: 1\n# b: 2\nc: [{d: 1, e_f: 2}]\n# meaning: not a key\n") >= {"a", "b", "c", "d", "e_f"}
+    assert "range_noise_std" not in yaml_keys("# range_noise_std_per_m2: 0.0\n")
 
 
 def test_one_rule_for_whole_numbers_in_the_checker():
