@@ -19,15 +19,15 @@ Run after sourcing the build's devel/setup.bash (valgrind must be installed):
     /usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cost.py [--clouds 100]
 """
 import argparse
+import contextlib
 import os
 import re
-import socket
 import subprocess
 import sys
 import tempfile
-import time
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from laserscan_toolbox.ros.rosrun import Roscore
 
 FEED = r"""
 import os, sys, time, numpy as np, rospy
@@ -78,24 +78,15 @@ PARTS = {
 }
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start_master(tmp, node_names=("conv",)):
-    """A roscore on a free port (ROS_HOME and logs in tmp) with the shipped parameters loaded for
-    each node name. Returns (env for the children, the roscore's process)."""
-    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % free_port(), ROS_HOME=tmp, ROS_LOG_DIR=tmp)
-    port = env["ROS_MASTER_URI"].rsplit(":", 1)[1]
-    core = subprocess.Popen(["roscore", "-p", port], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    while subprocess.run(["rosparam", "list"], env=env, capture_output=True).returncode != 0:
-        time.sleep(0.3)
-    for name in node_names:
-        subprocess.run(["rosparam", "load", os.path.join(PKG, "config", "depth_filter_scan_converter.yaml"),
-                        "/" + name], env=env, check=True)
-    return env, core
+@contextlib.contextmanager
+def master(tmp, node_names=("conv",)):
+    """A private roscore (the toolbox's Roscore: a free port, ROS_HOME and logs in tmp) with the
+    shipped parameters loaded for each node name; yields the environment for the children."""
+    with Roscore(tmp) as core:
+        for name in node_names:
+            subprocess.run(["rosparam", "load", os.path.join(PKG, "config", "depth_filter_scan_converter.yaml"),
+                            "/" + name], env=core.env, check=True)
+        yield core.env
 
 
 def node_binary(env, executable):
@@ -124,27 +115,27 @@ def main():
     ap.add_argument("params", nargs="*", help="extra arguments for the node, e.g. _mode:=per_point")
     args = ap.parse_args()
     tmp = tempfile.mkdtemp(prefix="node_cost_")
-    env, core = start_master(tmp)
-    node = feed = None
-    try:
-        binary = node_binary(env, args.executable)
-        out = os.path.join(tmp, "callgrind.out")
-        node = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no", "--callgrind-out-file=" + out,
-                                 binary, "__name:=conv"] + args.params, env=env, stdout=subprocess.DEVNULL,
-                                stderr=subprocess.DEVNULL)
-        flag = os.path.join(tmp, "go")
-        feed = subprocess.Popen([sys.executable, "-c", FEED, str(args.clouds), flag, str(args.rate)], env=env,
-                                stdout=subprocess.PIPE, text=True)
-        assert feed.stdout.readline().strip() == "ready"
-        subprocess.run(["callgrind_control", "-i", "on", str(node.pid)], check=True, capture_output=True)
-        open(flag, "w").close()
-        scans = int(feed.stdout.readline().split()[1])
-        subprocess.run(["callgrind_control", "-i", "off", str(node.pid)], check=True, capture_output=True)
-    finally:
-        for p in (feed, node, core):
-            if p is not None and p.poll() is None:
-                p.send_signal(2)
-                p.wait(timeout=60)
+    with master(tmp) as env:
+        node = feed = None
+        try:
+            binary = node_binary(env, args.executable)
+            out = os.path.join(tmp, "callgrind.out")
+            node = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
+                                     "--callgrind-out-file=" + out, binary, "__name:=conv"] + args.params, env=env,
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            flag = os.path.join(tmp, "go")
+            feed = subprocess.Popen([sys.executable, "-c", FEED, str(args.clouds), flag, str(args.rate)], env=env,
+                                    stdout=subprocess.PIPE, text=True)
+            assert feed.stdout.readline().strip() == "ready"
+            subprocess.run(["callgrind_control", "-i", "on", str(node.pid)], check=True, capture_output=True)
+            open(flag, "w").close()
+            scans = int(feed.stdout.readline().split()[1])
+            subprocess.run(["callgrind_control", "-i", "off", str(node.pid)], check=True, capture_output=True)
+        finally:
+            for p in (feed, node):
+                if p is not None and p.poll() is None:
+                    p.send_signal(2)
+                    p.wait(timeout=60)
     annotated = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", out], capture_output=True,
                                text=True).stdout
     total = int(re.search(r"([0-9,]+) \(100.0%\)\s+PROGRAM TOTALS", annotated).group(1).replace(",", ""))

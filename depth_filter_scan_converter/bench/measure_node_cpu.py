@@ -55,7 +55,7 @@ import psutil
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 from laserscan_toolbox.ros.cpu_accounting import process_cpu_s, thread_cpu_s
-from measure_node_cost import FEED, node_binary, start_master
+from measure_node_cost import FEED, master, node_binary
 
 # name -> (executable, extra private parameters)
 NODES = {
@@ -121,40 +121,40 @@ def run_round(clouds, tmp):
     """Per node of NODES fed the same `clouds` clouds: (CPU seconds of the whole node, of its work
     thread, idle CPU seconds per second, minor page faults); the scans each sent; the window's length
     in seconds."""
-    env, core = start_master(tmp, node_names=tuple(NODES))
-    nodes, feed = {}, None
-    try:
-        for kind, (executable, params) in NODES.items():
-            nodes[kind] = subprocess.Popen([node_binary(env, executable), "__name:=%s" % kind, "scan:=/scan_%s" % kind]
-                                           + params, env=dict(env, **ENV.get(kind, {})), stdout=subprocess.DEVNULL,
-                                           stderr=subprocess.DEVNULL)
-        flag = os.path.join(tmp, "go")
-        feed = subprocess.Popen([sys.executable, "-c", FEED, str(clouds), flag, str(RATE_HZ),
-                                 ",".join("/scan_%s" % kind for kind in NODES)], env=env, stdout=subprocess.PIPE,
-                                text=True)
-        if feed.stdout.readline().strip() != "ready":
-            raise RuntimeError("the feeder did not connect to the nodes")
-        quiet = read_cpu(nodes)
-        time.sleep(IDLE_S)  # connected, no cloud yet: what each node spends anyway
-        before = read_cpu(nodes)
-        start = time.monotonic()
-        open(flag, "w").close()
-        scans = [int(n) for n in feed.stdout.readline().split()[1:]]
-        after = read_cpu(nodes)
-        window = time.monotonic() - start
-        os.remove(flag)
-        # per node: CPU seconds in the window (whole node, work thread), idle CPU seconds per second,
-        # page faults in the window
-        cpu = {kind: (after[kind][0] - before[kind][0],
-                      work_thread_cpu_s(kind, nodes[kind].pid, before[kind][1], after[kind][1]),
-                      (before[kind][0] - quiet[kind][0]) / IDLE_S, after[kind][2] - before[kind][2])
-               for kind in NODES}
-        return cpu, dict(zip(NODES, scans)), window
-    finally:
-        for p in [feed] + list(nodes.values()) + [core]:
-            if p is not None and p.poll() is None:
-                p.send_signal(2)
-                p.wait(timeout=60)
+    with master(tmp, node_names=tuple(NODES)) as env:
+        nodes, feed = {}, None
+        try:
+            for kind, (executable, params) in NODES.items():
+                nodes[kind] = subprocess.Popen(
+                    [node_binary(env, executable), "__name:=%s" % kind, "scan:=/scan_%s" % kind] + params,
+                    env=dict(env, **ENV.get(kind, {})), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            flag = os.path.join(tmp, "go")
+            feed = subprocess.Popen([sys.executable, "-c", FEED, str(clouds), flag, str(RATE_HZ),
+                                     ",".join("/scan_%s" % kind for kind in NODES)], env=env, stdout=subprocess.PIPE,
+                                    text=True)
+            if feed.stdout.readline().strip() != "ready":
+                raise RuntimeError("the feeder did not connect to the nodes")
+            quiet = read_cpu(nodes)
+            time.sleep(IDLE_S)  # connected, no cloud yet: what each node spends anyway
+            before = read_cpu(nodes)
+            start = time.monotonic()
+            open(flag, "w").close()
+            scans = [int(n) for n in feed.stdout.readline().split()[1:]]
+            after = read_cpu(nodes)
+            window = time.monotonic() - start
+            os.remove(flag)
+            # per node: CPU seconds in the window (whole node, work thread), idle CPU seconds per second,
+            # page faults in the window
+            cpu = {kind: (after[kind][0] - before[kind][0],
+                          work_thread_cpu_s(kind, nodes[kind].pid, before[kind][1], after[kind][1]),
+                          (before[kind][0] - quiet[kind][0]) / IDLE_S, after[kind][2] - before[kind][2])
+                   for kind in NODES}
+            return cpu, dict(zip(NODES, scans)), window
+        finally:
+            for p in [feed] + list(nodes.values()):
+                if p is not None and p.poll() is None:
+                    p.send_signal(2)
+                    p.wait(timeout=60)
 
 
 def ratio_text(reference, converter):

@@ -13,10 +13,8 @@ import tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
-# The benchmark scripts import each other from their folder, which is no package: the one path
-# entry a test adds (the toolbox itself comes from pytest.ini).
-sys.path.insert(0, os.path.join(PKG, "bench"))
-from measure_node_cost import FEED, node_binary, start_master  # noqa: E402
+# The benchmark scripts (bench/, a folder of scripts) come from pytest.ini's pythonpath.
+from measure_node_cost import FEED, master, node_binary
 
 # Prints the first scan of each node as JSON (None for no return), once both came.
 LISTEN = r"""
@@ -35,27 +33,29 @@ print(json.dumps({k: [r if math.isfinite(r) else None for r in v] for k, v in sc
 
 def test_per_point_node_finds_the_converters_closest_points():
     tmp = tempfile.mkdtemp(prefix="per_point_test_")
-    env, core = start_master(tmp, ("conv", "ref"))
-    procs = [core]
-    try:
-        for exe, args in (("depth_filter_scan_converter_node", ["__name:=conv", "scan:=/scan_converter"]),
-                          ("per_point_reference_node", ["__name:=ref", "scan:=/scan_per_point", "_mode:=per_point"])):
-            procs.append(subprocess.Popen([node_binary(env, exe)] + args, env=env, stdout=subprocess.DEVNULL,
-                                          stderr=subprocess.DEVNULL))
-        listen = subprocess.Popen([sys.executable, "-c", LISTEN], env=env, stdout=subprocess.PIPE, text=True)
-        procs.append(listen)
-        # measure_node_cost's feeder: a static tf and organized clouds of a camera looking forward.
-        flag = os.path.join(tmp, "go")
-        open(flag, "w").close()
-        procs.append(subprocess.Popen([sys.executable, "-c", FEED, "5", flag, "10", "/scan_converter,/scan_per_point"],
-                                      env=env, stdout=subprocess.DEVNULL))
-        out, _ = listen.communicate(timeout=120)
-        scans = json.loads(out.strip().splitlines()[-1])
-    finally:
-        for p in reversed(procs):
-            if p.poll() is None:
-                p.send_signal(2)
-                p.wait(timeout=30)
+    with master(tmp, ("conv", "ref")) as env:
+        procs = []
+        try:
+            for exe, args in (("depth_filter_scan_converter_node", ["__name:=conv", "scan:=/scan_converter"]),
+                              ("per_point_reference_node",
+                               ["__name:=ref", "scan:=/scan_per_point", "_mode:=per_point"])):
+                procs.append(subprocess.Popen([node_binary(env, exe)] + args, env=env, stdout=subprocess.DEVNULL,
+                                              stderr=subprocess.DEVNULL))
+            listen = subprocess.Popen([sys.executable, "-c", LISTEN], env=env, stdout=subprocess.PIPE, text=True)
+            procs.append(listen)
+            # measure_node_cost's feeder: a static tf and organized clouds of a camera looking forward.
+            flag = os.path.join(tmp, "go")
+            open(flag, "w").close()
+            procs.append(subprocess.Popen(
+                [sys.executable, "-c", FEED, "5", flag, "10", "/scan_converter,/scan_per_point"], env=env,
+                stdout=subprocess.DEVNULL))
+            out, _ = listen.communicate(timeout=120)
+            scans = json.loads(out.strip().splitlines()[-1])
+        finally:
+            for p in reversed(procs):
+                if p.poll() is None:
+                    p.send_signal(2)
+                    p.wait(timeout=30)
     inf = math.inf
     conv = [inf if r is None else r for r in scans["/scan_converter"]]
     ref = [inf if r is None else r for r in scans["/scan_per_point"]]
