@@ -18,16 +18,19 @@ counts instead the instructions the process executes per output under valgrind's
 (all its threads, counted only between warm-up and the end of the window), the same on every
 run up to the timing of threads and timers; the node and the relay run under it in turn, and
 `--compare DEVEL` adds the merger node of another build's devel space (e.g. one of a commit before
-a change, built in its own folder), run with that build's libraries and fed the same way. Under callgrind a process runs some 50 times slower, so the feed is slowed for all alike
-(`--rate-scale`, every source and the odometry by the same factor: the same mix per output):
+a change, built in its own folder), run with that build's libraries and fed the same way. A merger
+node's line also gives its core's share (MergerCore::merge) and its diagnostics' (published once a
+second, so their share per output shrinks as the rate grows). Under callgrind a process runs some
+50 times slower, so the feed can be slowed for all alike (`--rate-scale`, every source and the
+odometry by the same factor: the same mix per output):
 
-    /usr/bin/python3 multi_laserscan_merger/bench/measure_node_cost.py --instructions --rate-scale 0.25 --seconds 60
+    /usr/bin/python3 multi_laserscan_merger/bench/measure_node_cost.py --instructions --rate-scale 0.25 \
+        --seconds 60 --rounds 3 --compare /path/to/other_build/devel
 """
 import argparse
 import math
 import os
 import re
-import signal
 import subprocess
 import sys
 import tempfile
@@ -184,6 +187,25 @@ def loaded_merger_library(pid):
     return None
 
 
+# The parts of a merger node's instructions (callgrind_annotate's inclusive counts): the core's
+# merge, and the diagnostics published once a second whatever the rate.
+PARTS = {'core': r'multi_laserscan_merger::MergerCore::merge\(',
+         'diagnostics': r'diagnostic_updater::Updater::force_update\(\)'}
+
+
+def callgrind_parts(path):
+    """{part: instructions} of PARTS in a callgrind output file (the first, largest, match)."""
+    annotated = subprocess.run(['callgrind_annotate', '--inclusive=yes', '--threshold=100', path],
+                               capture_output=True, text=True).stdout
+    parts = {}
+    for name, pattern in PARTS.items():
+        for line in annotated.splitlines():
+            if re.search(pattern, line):
+                parts[name] = int(line.split()[0].replace(',', ''))
+                break
+    return parts
+
+
 def callgrind_total(path):
     """The instructions (Ir) a callgrind output file counts: its `totals:` line (its `summary:`
     line reads 0 when counting was switched on and off by callgrind_control)."""
@@ -195,7 +217,8 @@ def callgrind_total(path):
 
 
 def measure(env, mode, executable, seconds, rate_scale, tmp, instructions):
-    """(CPU seconds or instructions of the process in the window, outputs, inputs, wall seconds)."""
+    """(CPU seconds or instructions of the process in the window, {part: instructions} of a merger
+    node under callgrind, outputs, inputs, wall seconds)."""
     target, procs = start(env, mode, executable, tmp, instructions)
     count_file = os.path.join(tmp, mode + '.count')
     feed = subprocess.Popen([sys.executable, os.path.abspath(__file__), '--publish', count_file,
@@ -229,9 +252,12 @@ def measure(env, mode, executable, seconds, rate_scale, tmp, instructions):
     finally:
         for p in [feed] + procs[::-1]:
             stop_process(p, timeout=60.0)  # valgrind writes its counts on the way out
+    parts = {}
     if instructions:
         cost = callgrind_total(os.path.join(tmp, mode + '.callgrind'))
-    return cost, o1 - o0, i1 - i0, t1 - t0
+        if mode != 'relay':
+            parts = callgrind_parts(os.path.join(tmp, mode + '.callgrind'))
+    return cost, parts, o1 - o0, i1 - i0, t1 - t0
 
 
 def main():
@@ -265,13 +291,15 @@ def main():
         for round_number in range(1, args.rounds + 1):
             per_output = {}
             for mode, executable in modes:
-                cost, outputs, inputs, wall = measure(env, mode, executable, args.seconds, args.rate_scale, tmp,
-                                                      args.instructions)
+                cost, parts, outputs, inputs, wall = measure(env, mode, executable, args.seconds, args.rate_scale,
+                                                             tmp, args.instructions)
                 per_output[mode] = cost / max(outputs, 1)
                 if args.instructions:
                     print('round %d %-8s %5d outputs of %5d input scans in %.1f s: %.0f instructions = %.0f k per '
-                          'output, %.0f k per input scan' % (round_number, mode, outputs, inputs, wall, cost,
-                                                              per_output[mode] / 1e3, cost / max(inputs, 1) / 1e3))
+                          'output, %.0f k per input scan%s'
+                          % (round_number, mode, outputs, inputs, wall, cost, per_output[mode] / 1e3,
+                             cost / max(inputs, 1) / 1e3,
+                             ''.join('; %s %.0f k' % (name, n / max(outputs, 1) / 1e3) for name, n in parts.items())))
                 else:
                     print('round %d %-8s %5d outputs of %5d input scans in %.1f s (%.1f Hz): process CPU %.3f s = '
                           '%.1f us per output (%.1f%% of one core)'
@@ -286,12 +314,11 @@ def main():
         print('per output over %d round(s), lowest-highest (%s):' % (len(rounds), unit))
         for mode, _ in modes:
             figures = [scale * r[mode] for r in rounds]
-            print('  %-22s %.1f-%.1f' % (mode, min(figures), max(figures)))
+            print('  %-24s %.1f-%.1f' % (mode, min(figures), max(figures)))
         for mode in ('node', 'compared'):
             if mode in rounds[0]:
                 above = [scale * (r[mode] - r['relay']) for r in rounds]
-                print('  %-22s %.1f-%.1f (glue and core; the core alone is about 2.4 us: bench/benchmark.cpp)'
-                      % (mode + ' above the relay', min(above), max(above)))
+                print('  %-24s %.1f-%.1f (its glue and core)' % (mode + ' above the relay', min(above), max(above)))
     return 0
 
 
