@@ -113,7 +113,7 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
         std::lock_guard<std::mutex> lock(mutex_);
         convert(*cloud, cloud->data.data(), cloud->data.size(), nullptr, received);
       },
-      [this](const Cloud::ConstPtr& cloud, const char* why) { transformFailed(cloud->header, why); });
+      [this](const Cloud::ConstPtr& cloud, const std::string& why) { transformFailed(cloud->header, why); });
   else
   {
     image_wait_ = std::make_unique<laserscan_common::TransformWait<CameraFrame>>(
@@ -122,7 +122,7 @@ DepthFilterScanConverter::DepthFilterScanConverter(ros::NodeHandle nh, ros::Node
         std::lock_guard<std::mutex> lock(mutex_);
         convert(*frame->image, frame->image->data.data(), frame->image->data.size(), frame->info, received);
       },
-      [this](const boost::shared_ptr<const CameraFrame>& frame, const char* why) {
+      [this](const boost::shared_ptr<const CameraFrame>& frame, const std::string& why) {
         transformFailed(frame->header, why);
       });
     image_sync_ = std::make_unique<ImageSync>(message_filters::sync_policies::ExactTime<Image, CameraInfo>(queue),
@@ -297,7 +297,7 @@ void DepthFilterScanConverter::dropMalformed(const std::string& reason, const st
               reason.c_str());
 }
 
-void DepthFilterScanConverter::transformFailed(const std_msgs::Header& header, const char* why)
+void DepthFilterScanConverter::transformFailed(const std_msgs::Header& header, const std::string& why)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   ++tf_failures_;
@@ -305,7 +305,7 @@ void DepthFilterScanConverter::transformFailed(const std_msgs::Header& header, c
   if (warnings_.due("no transform"))
     NODE_WARN(private_nh_.getNamespace(), "dropped a cloud: no transform %s -> %s at %s: %s", header.frame_id.c_str(),
               params_.transform.reference_frame.c_str(),
-              laserscan_common::stampText(header.stamp.sec, header.stamp.nsec).c_str(), why);
+              laserscan_common::stampText(header.stamp.sec, header.stamp.nsec).c_str(), why.c_str());
 }
 
 std::string DepthFilterScanConverter::viewOf(const Cloud& cloud, const std::uint8_t* bytes, std::size_t size,

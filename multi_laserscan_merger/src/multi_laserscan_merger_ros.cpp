@@ -135,9 +135,9 @@ MultiLaserScanMergerRos::MultiLaserScanMergerRos(ros::NodeHandle nh, ros::NodeHa
     sources_[i].wait = std::make_unique<laserscan_common::TransformWait<sensor_msgs::LaserScan>>(
       tf_buffer_, targets, 1, nh_,
       [this, i](const sensor_msgs::LaserScan::ConstPtr& msg, const ros::Time& received) {
-        transformArrived(i, msg, received, nullptr);
+        transformArrived(i, msg, received, "");
       },
-      [this, i](const sensor_msgs::LaserScan::ConstPtr& msg, const char* why) {
+      [this, i](const sensor_msgs::LaserScan::ConstPtr& msg, const std::string& why) {
         transformArrived(i, msg, ros::Time(), why);
       });
   }
@@ -353,7 +353,7 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
 }
 
 void MultiLaserScanMergerRos::transformArrived(std::size_t i, const sensor_msgs::LaserScan::ConstPtr& msg,
-                                               const ros::Time& received, const char* why)
+                                               const ros::Time& received, const std::string& why)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   SourceState& s = sources_[i];
@@ -364,7 +364,7 @@ void MultiLaserScanMergerRos::transformArrived(std::size_t i, const sensor_msgs:
       return;  // given up on already (and counted then)
     Eigen::Isometry3d output_T_sensor;
     laserscan_common::SelfFilter posed;
-    std::string error = why ? why : "";
+    std::string error = why;
     const bool in_time = (ros::WallTime::now().toSec() - received.toSec()) <= kTransformWait;
     if (error.empty() && in_time)
       error = tryTransform(s.pending_frame, msg->header.stamp, output_T_sensor);

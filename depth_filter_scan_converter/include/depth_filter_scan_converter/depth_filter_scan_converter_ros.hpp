@@ -92,7 +92,7 @@ private:
   /// A cloud from the subscription: header checks, then converted or left to wait for its transform.
   void cloudArrived(const Cloud::ConstPtr& cloud);
   /// A message that waited for its transform in vain (why: as transformWaitFailure says).
-  void transformFailed(const std_msgs::Header& header, const char* why);
+  void transformFailed(const std_msgs::Header& header, const std::string& why);
   /// CloudReading::InPlace: takes a cloud whose bytes are still in roscpp's receive buffer and
   /// converts it (or drops it for a header that cannot reach tf2) if its transform is there; false
   /// leaves it to the usual path (cloudArrived), copied, to wait for its transform.

@@ -20,7 +20,7 @@
 namespace laserscan_common
 {
 /// What a message that waited in a TransformWait failed on, as a user reads it.
-inline const char* transformWaitFailure(tf2_ros::filter_failure_reasons::FilterFailureReason reason)
+inline std::string transformWaitFailure(tf2_ros::filter_failure_reasons::FilterFailureReason reason)
 {
   switch (reason)
   {
@@ -48,7 +48,7 @@ public:
   /// A message whose transforms came; `received` is the time passed to wait().
   using Ready = std::function<void(const ConstPtr& message, const ros::Time& received)>;
   /// A message that will not get its transforms; `why` as transformWaitFailure says it.
-  using Failed = std::function<void(const ConstPtr& message, const char* why)>;
+  using Failed = std::function<void(const ConstPtr& message, const std::string& why)>;
 
   /// At most `queue_size` messages wait (a newer one pushes the oldest out, as a failure).
   TransformWait(tf2_ros::Buffer& buffer, const std::vector<std::string>& targets, std::uint32_t queue_size,

@@ -74,7 +74,7 @@ struct SourceInput
 {
   bool present = false;
   ScanView scan;
-  /// The caller found scanFault(scan) == nullptr when the scan arrived: the merge does not check
+  /// The caller found scanFault(scan) empty when the scan arrived: the merge does not check
   /// it again (a kept scan goes into several merges). false: the merge checks it (kInvalid).
   bool checked = false;
   /// Output frame <- sensor frame at scan.stamp (full 3D; moving sensors allowed).

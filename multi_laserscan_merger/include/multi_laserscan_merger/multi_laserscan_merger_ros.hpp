@@ -108,10 +108,10 @@ private:
   /// Counts an output that waited or misses due scans, and names the late sources (throttled).
   void reportSync(const ros::Time& stamp, const StampSync::Decision& decision, bool waited);
   void drop(std::size_t source, std::string why);
-  /// A scan back from its source's wait: its transforms came (at `received`, wall time), or `why`
-  /// they will not (null when they came).
+  /// A scan back from its source's wait: its transforms came (`why` empty; received at `received`,
+  /// wall time), or `why` they will not.
   void transformArrived(std::size_t source, const sensor_msgs::LaserScan::ConstPtr& msg, const ros::Time& received,
-                        const char* why);
+                        const std::string& why);
   /// Drops a waiting scan that waited longer than kTransformWait (its transforms did not come).
   void expirePending();
   /// Counts and warns about the waiting scan of `source` whose transforms did not come in time.
