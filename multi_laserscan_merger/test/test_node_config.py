@@ -97,7 +97,8 @@ def test_bad_config_stops_node_naming_parameter(ros_env, yaml_text, parameter):
     set_params(ros_env, ns, yaml_text)
     code, out = run_to_exit(ros_env, ns)
     assert code is not None and code != 0, out
-    assert 'FATAL' in out and "parameter '%s'" % parameter in out, out
+    # Named as the node's every other line: "[<node>] ".
+    assert 'FATAL' in out and "[/%s] not starting: parameter '%s'" % (ns, parameter) in out, out
 
 
 def test_self_filter_block_is_read(ros_env):
@@ -127,6 +128,7 @@ def test_bad_config_nodelet_fatal(ros_env):
     assert nodelet.wait_for('FATAL'), nodelet.stop()
     out = nodelet.stop()
     assert 'FATAL' in out and "parameter 'sources[1].name'" in out and 'duplicate' in out, out
+    assert "[/bad_nodelet] not starting" in out, out  # which nodelet of a manager's log
     assert 'merging 1 sources' not in out
 
 

@@ -11,6 +11,7 @@
 
 #include "laserscan_common/cloud_view.hpp"
 #include "laserscan_common/message_checks.hpp"
+#include "laserscan_common/node_log.hpp"
 #include "laserscan_common/parameter_reader.hpp"
 #include "reactive_navigator/obstacle_points.hpp"
 
@@ -97,7 +98,7 @@ ReactiveNavigatorRos::ReactiveNavigatorRos(ros::NodeHandle nh, ros::NodeHandle p
   parameters_.odom_frame = laserscan_common::tf2FrameId(parameters_.odom_frame);
   parameters_.robot_frame = laserscan_common::tf2FrameId(parameters_.robot_frame);
 
-  tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, ros::this_node::getName());
+  tf_reader_ = std::make_unique<laserscan_common::TransformReader>(nh_, tf_buffer_, private_nh_.getNamespace());
   cmd_pub_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 10);
   state_pub_ = private_nh_.advertise<std_msgs::String>("state", 1, true);
   step_pub_ = private_nh_.advertise<geometry_msgs::TwistStamped>("step", 10);
@@ -141,7 +142,7 @@ ReactiveNavigatorRos::ReactiveNavigatorRos(ros::NodeHandle nh, ros::NodeHandle p
 void ReactiveNavigatorRos::warn(const std::string& kind, const std::string& text)
 {
   if (throttle_.due(kind))
-    ROS_WARN("%s: %s", ros::this_node::getName().c_str(), text.c_str());
+    NODE_WARN(private_nh_.getNamespace(), "%s", text.c_str());
 }
 
 void ReactiveNavigatorRos::goalArrived(const geometry_msgs::PoseStamped::ConstPtr& goal)
@@ -200,8 +201,8 @@ bool ReactiveNavigatorRos::tryPendingGoal(bool give_up_when_late)
   pending_goal_.reset();
   core_->setGoal(in_odom.x(), in_odom.y());
   publishState();  // at once: a simulator waits for it before the goal's first step
-  ROS_INFO("%s: new goal (%.2f, %.2f) in '%s'", ros::this_node::getName().c_str(), in_odom.x(), in_odom.y(),
-           parameters_.odom_frame.c_str());
+  NODE_INFO(private_nh_.getNamespace(), "new goal (%.2f, %.2f) in '%s'", in_odom.x(), in_odom.y(),
+            parameters_.odom_frame.c_str());
   return true;
 }
 

@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "laserscan_common/node_glue.hpp"
+#include "laserscan_common/node_log.hpp"
 
 namespace laserscan_common
 {
@@ -29,7 +30,7 @@ int runNode(int argc, char** argv, const char* name, Args... args)
   }
   catch (const ParameterError& e)
   {
-    ROS_FATAL("not starting: %s", describe(e).c_str());
+    NODE_FATAL(private_nh.getNamespace(), "not starting: %s", describe(e).c_str());
     return 1;
   }
   return 0;
@@ -49,7 +50,8 @@ private:
     catch (const ParameterError& e)
     {
       // Bad configuration: say which parameter, and do not process anything.
-      NODELET_FATAL("not starting: %s", describe(e).c_str());
+      // Named as every other line of the node: a manager's log holds many nodelets'.
+      NODE_FATAL(getPrivateNodeHandle().getNamespace(), "not starting: %s", describe(e).c_str());
     }
   }
 

@@ -8,3 +8,4 @@
 #define NODE_INFO(node, format, ...) ROS_INFO("[%s] " format, (node).c_str(), ##__VA_ARGS__)
 #define NODE_WARN(node, format, ...) ROS_WARN("[%s] " format, (node).c_str(), ##__VA_ARGS__)
 #define NODE_ERROR(node, format, ...) ROS_ERROR("[%s] " format, (node).c_str(), ##__VA_ARGS__)
+#define NODE_FATAL(node, format, ...) ROS_FATAL("[%s] " format, (node).c_str(), ##__VA_ARGS__)
