@@ -11,7 +11,6 @@ namespace depth_filter_scan_converter
 {
 namespace
 {
-using laserscan_common::kTwoPi;
 std::string describe(const char* what, double value)
 {
   std::ostringstream s;

@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "laserscan_common/fast_math.hpp"
+#include "laserscan_common/scan_geometry.hpp"
 
 namespace multi_laserscan_merger
 {
@@ -36,7 +37,7 @@ inline __attribute__((always_inline)) void projectLoop(std::size_t len, const fl
                                                        int* __restrict kg, float* __restrict og, float* __restrict xs,
                                                        float* __restrict ys)
 {
-  constexpr float kTwoPi = 6.28318530717958647692f;
+  constexpr auto kTwoPi = static_cast<float>(laserscan_common::kTwoPi);
   constexpr std::int32_t kInfBits = 0x7f800000;
   constexpr std::int32_t kMinusInfBits = static_cast<std::int32_t>(0xff800000u);
   // An invalid beam is projected at this range: its direction, whatever the translation.

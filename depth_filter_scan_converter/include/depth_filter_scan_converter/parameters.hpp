@@ -12,9 +12,12 @@
 
 #include "laserscan_common/parameter_error.hpp"
 #include "laserscan_common/parameter_table.hpp"
+#include "laserscan_common/scan_geometry.hpp"
 
 namespace depth_filter_scan_converter
 {
+using laserscan_common::kPi;
+using laserscan_common::kTwoPi;
 using laserscan_common::ParameterError;
 using laserscan_common::ParamInfo;
 
@@ -82,10 +85,10 @@ void visitFields(P& p, V&& visit)
 /// Geometry of the scan and the values it writes (REP 117).
 struct ScanParams
 {
-  double angle_min = -M_PI;               ///< first beam, around reference z
-  double angle_max = M_PI;                ///< last beam
-  double angle_increment = M_PI / 720.0;  ///< beam spacing
-  double range_min = 0.0;                 ///< planar distance limits from the frame origin
+  double angle_min = -kPi;               ///< first beam, around reference z
+  double angle_max = kPi;                ///< last beam
+  double angle_increment = kPi / 720.0;  ///< beam spacing
+  double range_min = 0.0;                ///< planar distance limits from the frame origin
   double range_max = 10.0;
   bool too_close_at_range_min = false;  ///< too close is -Inf (REP 117) ... or range_min
   bool use_inf = true;                  ///< no return is +Inf (REP 117) ...
@@ -110,13 +113,13 @@ template <class P, class V, std::enable_if_t<std::is_same_v<std::decay_t<P>, Sca
 void visitFields(P& p, V&& visit)
 {
   visit(p.angle_min, ParamInfo("angle_min", "rad", "first beam, around `reference_frame`'s z axis, in [-2 pi, 2 pi]")
-                       .angleWithin(2.0 * M_PI)
+                       .angleWithin(kTwoPi)
                        .shownAs("`-pi`"));
   visit(
     p.angle_max,
     ParamInfo("angle_max", "rad",
               "last beam; `angle_min < angle_max`, `angle_max - angle_min` <= 2 pi (a scan covers at most one turn)")
-      .angleWithin(2.0 * M_PI)
+      .angleWithin(kTwoPi)
       .shownAs("`pi`"));
   visit(
     p.angle_increment,

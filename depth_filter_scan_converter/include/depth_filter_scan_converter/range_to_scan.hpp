@@ -17,9 +17,11 @@
 
 #include "laserscan_common/parameter_error.hpp"
 #include "laserscan_common/parameter_table.hpp"
+#include "laserscan_common/scan_geometry.hpp"
 
 namespace depth_filter_scan_converter
 {
+using laserscan_common::kTwoPi;
 using laserscan_common::ParameterError;
 
 /// Every tunable of the range converter, with its default, in one place (metres, radians).
@@ -47,11 +49,11 @@ void visitFields(P& p, V&& visit)
   visit(p.arc_width, ParamInfo("arc_width", "rad",
                                "when > 0, the arc spans this, whatever the message's `field_of_view`; within [0, 2 pi]")
                        .atLeast(0.0)
-                       .atMost(2.0 * M_PI + 1e-6));
+                       .atMost(kTwoPi + 1e-6));
   visit(p.angle_increment, ParamInfo("angle_increment", "rad",
                                      "largest spacing between the arc's beams, > 2 pi / 100000; the merger's default "
                                      "output resolution, so the arc leaves no gaps in its bins")
-                             .above(2.0 * M_PI / 100000.0)
+                             .above(kTwoPi / 100000.0)
                              .finiteOnly()
                              .shownAs("`0.004363323` (pi/720, 0.25 deg)"));
   visit(p.min_consecutive_readings,

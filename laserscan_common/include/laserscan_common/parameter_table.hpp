@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "laserscan_common/parameter_error.hpp"
+#include "laserscan_common/scan_geometry.hpp"
 
 namespace laserscan_common
 {
@@ -115,7 +116,7 @@ inline const char* typeName(const std::vector<std::string>&)
 inline std::string limitText(double v)
 {
   for (const auto& [multiple, text] : { std::pair<double, const char*>{ 1.0, "pi" }, { 2.0, "2 pi" } })
-    if (std::fabs(std::fabs(v) - multiple * 3.14159265358979323846) <= 2e-6)
+    if (std::fabs(std::fabs(v) - multiple * kPi) <= 2e-6)
       return (v < 0.0 ? "-" : "") + std::string(text);
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%g", v);
