@@ -38,7 +38,8 @@ NODES = [
     ("multi_laserscan_merger", "multi_laserscan_merger_node", [], "sources"),  # no sources given
     ("reactive_navigator", "reactive_navigator_node", ["_scan_topics:=[scan]", "_mode:=4d"], "mode"),
 ]
-# Each nodelet with the installed YAML (package, file in its config/) it starts on.
+# Each nodelet with the installed YAML (package, file in its config/) it starts on (None: its
+# defaults).
 NODELETS = [
     ("depth_filter_scan_converter/DepthFilterScanConverterNodelet",
      "depth_filter_scan_converter", "depth_filter_scan_converter.yaml"),
@@ -49,6 +50,8 @@ NODELETS = [
     ("multi_laserscan_merger/MultiLaserScanMergerNodelet",
      "multi_laserscan_merger", "multi_laserscan_merger.yaml"),
     ("reactive_navigator/ReactiveNavigatorNodelet", "reactive_navigator", "reactive_navigator.yaml"),
+    # The benchmark's camera stand-in (scripts/camera_path_benchmark), installed with the converters.
+    ("depth_filter_scan_converter/DepthReplayNodelet", None, None),
 ]
 # Every launch file the install space holds; the last test starts those in STARTED, the others
 # are parsed (roslaunch --nodes), with their configs and checks, since they need a robot or rviz.
@@ -61,7 +64,7 @@ LAUNCH_FILES = [("depth_filter_scan_converter", "depth_filter_scan_converter.lau
                 ("scan_evaluation_tools", "pipeline.launch"),
                 ("scan_evaluation_tools", "rviz.launch")]
 STARTED = {"depth_filter_scan_converter.launch", "range_scan_converter.launch",
-           "multi_laserscan_merger.launch", "dual_lidar_demo.launch"}
+           "multi_laserscan_merger.launch", "reactive_navigator.launch", "dual_lidar_demo.launch"}
 MANAGER = "install_manager"
 
 
@@ -172,6 +175,30 @@ def test_packages_are_found_in_the_install_space(installed):
     assert out.split() == [os.path.join(installed.prefix, "share", p) for p in PACKAGES], out
 
 
+def executables(prefix, package):
+    """The compiled programs (ELF files) an install space holds for `package` (where rosrun looks),
+    without the benchmarks a developer may have built and installed (built on request only)."""
+    found = set()
+    for path in glob.glob(os.path.join(prefix, "lib", package, "*")):
+        with open(path, "rb") as f:
+            if f.read(4) == b"\x7fELF" and not path.endswith("_benchmark"):
+                found.add(os.path.basename(path))
+    return found
+
+
+def test_the_lists_above_hold_every_installed_node_and_nodelet(installed):
+    """Every compiled node of the node packages is in NODES and every nodelet class the installed
+    plugin files declare is in NODELETS, so that the tests below start them all."""
+    for package in PACKAGES:
+        if package != "scan_evaluation_tools":  # its programs are tools (the last test runs them)
+            assert executables(installed.prefix, package) == {n for p, n, _, _ in NODES if p == package}, package
+    declared = set()
+    for path in glob.glob(os.path.join(installed.prefix, "share", "*", "nodelet_plugins.xml")):
+        with open(path) as f:
+            declared.update(re.findall(r'<class name="([^"]+)"', f.read()))
+    assert declared == {cls for cls, _, _ in NODELETS}
+
+
 def test_every_node_starts_through_rosrun_and_refuses_a_bad_config(installed):
     procs = {node: installed.start("rosrun", pkg, node, "__name:=install_" + node, *params)
              for pkg, node, params, _ in NODES}
@@ -192,9 +219,10 @@ def test_every_nodelet_loads_into_a_manager(installed):
     try:
         for cls, pkg, yaml_file in NODELETS:
             name = "install_" + cls.split("/")[1]
-            config = os.path.join(installed.prefix, "share", pkg, "config", yaml_file)
-            code, out = installed.run("rosparam", "load", config, "/" + name)
-            assert code == 0, out
+            if yaml_file is not None:
+                config = os.path.join(installed.prefix, "share", pkg, "config", yaml_file)
+                code, out = installed.run("rosparam", "load", config, "/" + name)
+                assert code == 0, out
             loaders[name] = installed.start("rosrun", "nodelet", "nodelet", "load", cls, MANAGER,
                                             "__name:=" + name, "scan:=/%s/scan" % name)
         loaded = set()
@@ -244,11 +272,14 @@ def test_launch_fragments_and_a_system_launch_start_their_nodes(installed):
                                  "manager:=install_range_manager", "name:=install_range", "scan:=/install/range_scan"),
         "merger": installed.start("roslaunch", "multi_laserscan_merger", "multi_laserscan_merger.launch",
                                   "standalone:=true", "name:=install_merger", "merged_scan:=/install/merged_scan"),
+        "navigator": installed.start("roslaunch", "reactive_navigator", "reactive_navigator.launch",
+                                     "name:=install_navigator", "cmd_vel:=/install/cmd_vel"),
         "dual_lidar_demo": installed.start("roslaunch", "scan_evaluation_tools", "dual_lidar_demo.launch",
                                            "manager:=install_dual_manager"),
     }
     outputs = {"/install/depth_scan": "/install_depth", "/install/range_scan": "/install_range_manager",
-               "/install/merged_scan": "/install_merger", "/merged_scan": "/install_dual_manager"}
+               "/install/merged_scan": "/install_merger", "/install/cmd_vel": "/install_navigator",
+               "/merged_scan": "/install_dual_manager"}
     try:
         wait_for(lambda: all(node in publishers(installed.master, topic) for topic, node in outputs.items()),
                  launches, "every launch's output advertised")
@@ -267,7 +298,10 @@ def test_installed_tools_run_from_the_install_space(installed, tmp_path):
             if b"python" in f.readline():
                 python_tools.add(os.path.basename(path))
     assert TOOLS <= python_tools, python_tools
-    programs = sorted(python_tools) + ["bag_to_octomap", "bag_to_rawlog", "rawlog_dump"]
+    # and the compiled ones (bag_to_rawlog, rawlog_dump, bag_to_octomap: MRPT and OctoMap)
+    compiled = executables(installed.prefix, "scan_evaluation_tools")
+    assert {"bag_to_octomap", "bag_to_rawlog", "rawlog_dump"} <= compiled, compiled
+    programs = sorted(python_tools) + sorted(compiled)
     results = installed.run_all([["rosrun", "scan_evaluation_tools", p, "--help"] for p in programs])
     for program, (code, out) in zip(programs, results):
         # the C++ programs (found, linked) print their usage with a non-zero status
