@@ -97,6 +97,15 @@ COMMANDS = {
     "/usr/bin/python3 depth_filter_scan_converter/bench/measure_node_cpu.py --clouds 100 --repeat 9":
     "depth_filter_scan_converter/test/test_per_point_reference.py",
     "/usr/bin/python3 multi_laserscan_merger/bench/measure_node_cost.py --seconds 20": CHECKED,
+    # the merger node before and after issue 22, in instructions (valgrind; under an hour)
+    "git worktree add ../before22 4a8646d": CHECKED,
+    "cmake -S ../before22 -B ../before22_build -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=ON "
+    "-DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3": CHECKED,
+    "cmake --build ../before22_build --target multi_laserscan_merger_node -j2": CHECKED,
+    "/usr/bin/python3 multi_laserscan_merger/bench/measure_node_cost.py --instructions --seconds 30 --rounds 3 "
+    "--compare ../before22_build/devel": CHECKED,
+    "/usr/bin/python3 multi_laserscan_merger/bench/measure_node_cost.py --instructions --rate-scale 0.25 "
+    "--seconds 60 --rounds 3 --compare ../before22_build/devel": CHECKED,
     "/usr/bin/python3 multi_laserscan_merger/bench/shared_stamps_real_bag.py --windows 0 0.01": CHECKED,  # 3 min
     "cmake --build build --target depth_filter_scan_converter_benchmark": CHECKED,
     "cmake --build build --target multi_laserscan_merger_benchmark -j2": CHECKED,
@@ -161,7 +170,7 @@ COMMANDS = {
 
 # Programs that are not this repository's and need no more than their path arguments checked.
 EXTERNAL = {"source", "cd", "catkin_test_results", "sed", "rbpf-slam", "rosbag", "catkin_lint", "catkin_make",
-            "catkin"}
+            "catkin", "git"}
 SHELL_LANGS = {"sh", "bash", "shell", "console"}
 
 
