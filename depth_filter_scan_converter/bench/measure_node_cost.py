@@ -28,7 +28,7 @@ import sys
 import tempfile
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-from laserscan_toolbox.ros.rosrun import Roscore
+from laserscan_toolbox.ros.rosrun import Roscore, package_executable
 
 FEED = r"""
 import os, sys, time, numpy as np, rospy
@@ -93,12 +93,8 @@ def master(tmp, node_names=("conv",)):
 
 
 def node_binary(env, executable):
-    """The package's built executable, or a RuntimeError saying to build it."""
-    found = subprocess.run(["catkin_find", "--libexec", "depth_filter_scan_converter", executable], env=env,
-                           capture_output=True, text=True).stdout.split()
-    if not found:
-        raise RuntimeError("%s not found: build the package (and its tests) first" % executable)
-    return found[0]
+    """The package's built program `executable` (the toolbox's package_executable)."""
+    return package_executable(env, "depth_filter_scan_converter", executable)
 
 
 def inclusive(annotated, pattern):

@@ -38,7 +38,7 @@ import time
 
 PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 from laserscan_toolbox.ros.cpu_accounting import snapshot, spent, tree_processes
-from laserscan_toolbox.ros.rosrun import Roscore, stop_process
+from laserscan_toolbox.ros.rosrun import Roscore, package_executable, stop_process
 
 # name, frame, x, y, z, yaw, beams, angle_min, increment, rate
 SOURCES = [
@@ -136,15 +136,6 @@ def read_counts(path):
         return int(outputs), int(inputs)
     except (OSError, ValueError):
         return 0, 0
-
-
-def package_executable(env, name):
-    """The merger package's built executable `name` (catkin_find), or a RuntimeError."""
-    found = subprocess.run(['catkin_find', '--libexec', 'multi_laserscan_merger', name], env=env,
-                           capture_output=True, text=True).stdout.split()
-    if not found:
-        raise RuntimeError('%s not found: build the package (and its tests) first' % name)
-    return found[0]
 
 
 def devel_space(executable):
@@ -278,8 +269,8 @@ def main():
     tmp = tempfile.mkdtemp(prefix='merger_cost_')
     with Roscore(tmp, base_env=dict(os.environ, PYENV_VERSION='system')) as core:
         env = core.env
-        modes = [('node', package_executable(env, 'multi_laserscan_merger_node')),
-                 ('relay', package_executable(env, 'scan_relay_node'))]
+        modes = [('node', package_executable(env, 'multi_laserscan_merger', 'multi_laserscan_merger_node')),
+                 ('relay', package_executable(env, 'multi_laserscan_merger', 'scan_relay_node'))]
         if not args.instructions:
             modes.insert(0, ('nodelet', None))
         if args.compare:

@@ -78,6 +78,16 @@ def process_name(p):
     return name
 
 
+def package_executable(env, package, name):
+    """The path of a package's built program `name` (catkin_find in `env`'s workspaces), or a
+    RunError saying to build it (test programs and benchmark nodes are built with the tests)."""
+    found = subprocess.run(["catkin_find", "--libexec", package, name], env=env, capture_output=True,
+                           text=True).stdout.split()
+    if not found:
+        raise RunError("%s of %s not found: build the package (and its tests) first" % (name, package))
+    return found[0]
+
+
 def free_port():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
