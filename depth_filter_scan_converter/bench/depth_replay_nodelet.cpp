@@ -4,53 +4,46 @@
 // manager get every frame by shared pointer (zero copy), as they would from a camera driver
 // nodelet (openni2_camera, realsense2_camera, depth_image_proc); each frame is a fresh message,
 // filled by copying the recorded one, as a driver fills its message from the device's buffer.
-#include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 
+#include <boost/make_shared.hpp>
 #include <cmath>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "depth_filter_scan_converter/converter_glue.hpp"
+#include "laserscan_common/entry_points.hpp"
+#include "laserscan_common/node_log.hpp"
 #include "laserscan_common/parameter_reader.hpp"
 
 namespace depth_filter_scan_converter
 {
-class DepthReplayNodelet : public nodelet::Nodelet
+class DepthReplay
 {
-private:
-  void onInit() override
+public:
+  /// Throws ParameterError on a bad `rate` or `frames` (the entry point reports it).
+  DepthReplay(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), name_(pnh.getNamespace())
   {
-    ros::NodeHandle& nh = getNodeHandle();
-    const ros::NodeHandle& pnh = getPrivateNodeHandle();
-    try
-    {
-      laserscan_common::ParameterReader reader(pnh);
-      reader.read("rate", rate_);
-      reader.read("frames", frame_count_);
-      if (!std::isfinite(rate_) || rate_ <= 0.0)
-        throw laserscan_common::ParameterError("rate", "must be a positive number of frames per second");
-      if (frame_count_ < 1)
-        throw laserscan_common::ParameterError("frames", "must be at least 1");
-    }
-    catch (const laserscan_common::ParameterError& e)
-    {
-      NODELET_FATAL("not starting: %s", describe(e).c_str());
-      return;
-    }
-    image_pub_ = nh.advertise<sensor_msgs::Image>("image", 5);
-    info_pub_ = nh.advertise<sensor_msgs::CameraInfo>("camera_info", 5);
-    image_sub_ = nh.subscribe("image_in", 10, &DepthReplayNodelet::imageIn, this);
-    info_sub_ = nh.subscribe("camera_info_in", 10, &DepthReplayNodelet::infoIn, this);
-    NODELET_INFO("recording %d depth images from %s (and a camera_info from %s), then replaying them at %g Hz on %s",
-                 frame_count_, image_sub_.getTopic().c_str(), info_sub_.getTopic().c_str(), rate_,
-                 image_pub_.getTopic().c_str());
+    laserscan_common::ParameterReader reader(pnh);
+    reader.read("rate", rate_);
+    reader.read("frames", frame_count_);
+    reader.warnUnknown();
+    if (!std::isfinite(rate_) || rate_ <= 0.0)
+      throw laserscan_common::ParameterError("rate", "must be a positive number of frames per second");
+    if (frame_count_ < 1)
+      throw laserscan_common::ParameterError("frames", "must be at least 1");
+    image_pub_ = nh_.advertise<sensor_msgs::Image>("image", 5);
+    info_pub_ = nh_.advertise<sensor_msgs::CameraInfo>("camera_info", 5);
+    image_sub_ = nh_.subscribe("image_in", 10, &DepthReplay::imageIn, this);
+    info_sub_ = nh_.subscribe("camera_info_in", 10, &DepthReplay::infoIn, this);
+    NODE_INFO(
+      name_, "recording %d depth images from %s (and a camera_info from %s), then replaying them at %g Hz on %s",
+      frame_count_, image_sub_.getTopic().c_str(), info_sub_.getTopic().c_str(), rate_, image_pub_.getTopic().c_str());
   }
 
+private:
   void imageIn(const sensor_msgs::ImageConstPtr& image)
   {
     if (frames_.size() < static_cast<std::size_t>(frame_count_))
@@ -70,8 +63,8 @@ private:
       return;
     image_sub_.shutdown();
     info_sub_.shutdown();
-    NODELET_INFO("recorded %zu depth images: replaying", frames_.size());
-    timer_ = getNodeHandle().createWallTimer(ros::WallDuration(1.0 / rate_), &DepthReplayNodelet::publishFrame, this);
+    NODE_INFO(name_, "recorded %zu depth images: replaying", frames_.size());
+    timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / rate_), &DepthReplay::publishFrame, this);
   }
 
   void publishFrame(const ros::WallTimerEvent&)
@@ -85,6 +78,8 @@ private:
     image_pub_.publish(image);
   }
 
+  ros::NodeHandle nh_;
+  std::string name_;  ///< for messages
   double rate_ = 15.0;
   int frame_count_ = 8;
   std::vector<sensor_msgs::ImageConstPtr> frames_;
@@ -94,6 +89,10 @@ private:
   ros::Publisher image_pub_, info_pub_;
   ros::WallTimer timer_;
 };
+
+/// The replay in a nodelet manager (laserscan_common's entry point: a bad parameter is its FATAL).
+class DepthReplayNodelet : public laserscan_common::NodeletOf<DepthReplay>
+{};
 }  // namespace depth_filter_scan_converter
 
 PLUGINLIB_EXPORT_CLASS(depth_filter_scan_converter::DepthReplayNodelet, nodelet::Nodelet)
