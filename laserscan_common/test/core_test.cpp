@@ -12,6 +12,7 @@
 #include "laserscan_common/message_checks.hpp"
 #include "laserscan_common/parameter_error.hpp"
 #include "laserscan_common/parameter_table.hpp"
+#include "laserscan_common/scan_view.hpp"
 #include "laserscan_common/throttle.hpp"
 
 namespace lc = laserscan_common;
@@ -359,4 +360,66 @@ TEST(ParameterTable, ClosestNameIsTheLikeliestTypoOnly)
   EXPECT_EQ(lc::closestName("my_block", known), "");  // nothing alike: no suggestion
   EXPECT_DOUBLE_EQ(lc::nameSimilarity("abc", "abc"), 1.0);
   EXPECT_DOUBLE_EQ(lc::nameSimilarity("abcd", "abxy"), 0.5);
+}
+
+// ---------------------------------------------------------------- received scans
+
+TEST(ScanFault, EachDefectOfAReceivedScanIsNamed)
+{
+  using laserscan_common::scanFault;
+  using laserscan_common::ScanView;
+  const std::vector<float> ranges(361, 1.0f);
+  ScanView v;
+  v.stamp = 12.5;
+  v.angle_min = -laserscan_common::kPi;
+  v.angle_increment = 2.0 * laserscan_common::kPi / 360.0;
+  v.angle_max = v.angle_min + 360.0 * v.angle_increment;
+  v.range_min = 0.05;
+  v.range_max = 30.0;
+  v.ranges = ranges.data();
+  v.n_ranges = ranges.size();
+  EXPECT_EQ(scanFault(v), "");
+
+  // Drivers round angle_max differently: one beam more or less is accepted, two are not.
+  ScanView bad = v;
+  bad.n_ranges = 360;
+  EXPECT_EQ(scanFault(bad), "");
+  bad.n_ranges = 359;
+  EXPECT_EQ(scanFault(bad), "ranges length does not match round((angle_max - angle_min) / angle_increment) + 1");
+
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  bad = v;
+  bad.stamp = nan;
+  EXPECT_EQ(scanFault(bad), "non-finite stamp");
+  bad = v;
+  bad.angle_increment = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(scanFault(bad), "non-finite angle_min, angle_max or angle_increment");
+  bad = v;
+  bad.angle_increment = -v.angle_increment;
+  EXPECT_EQ(scanFault(bad), "angle_increment <= 0");
+  bad = v;
+  bad.angle_max = v.angle_min - 0.1;
+  EXPECT_EQ(scanFault(bad), "angle_max < angle_min");
+  bad = v;
+  bad.time_increment = nan;
+  EXPECT_EQ(scanFault(bad), "non-finite time_increment");
+  bad = v;
+  bad.time_increment = 0.2;  // 361 beams x 0.2 s = 72 s
+  EXPECT_EQ(scanFault(bad), "time_increment * beams spans more than 60 s");
+  bad = v;
+  bad.range_min = 40.0;
+  EXPECT_EQ(scanFault(bad), "range_min/range_max NaN or range_min > range_max");
+  bad = v;
+  bad.ranges = nullptr;
+  EXPECT_EQ(scanFault(bad), "empty ranges");
+  bad = v;
+  bad.angle_increment = 1e-9;
+  bad.angle_max = v.angle_min + 1.0;
+  EXPECT_EQ(scanFault(bad), "angles give too many beams");
+  bad = v;
+  bad.intensities = ranges.data();
+  bad.n_intensities = 10;
+  EXPECT_EQ(scanFault(bad), "intensities length is neither 0 nor the ranges length");
+  bad.n_intensities = ranges.size();
+  EXPECT_EQ(scanFault(bad), "");
 }

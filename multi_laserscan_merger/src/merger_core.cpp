@@ -56,48 +56,6 @@ bool insidePolygon(const std::vector<std::array<double, 2>>& polygon, double x, 
   return inside;
 }
 
-std::size_t expectedBeamCount(const ScanView& s)
-{
-  if (!std::isfinite(s.angle_min) || !std::isfinite(s.angle_max) || !std::isfinite(s.angle_increment) ||
-      s.angle_increment <= 0.0 || s.angle_max < s.angle_min)
-    return 0;
-  const double steps = (s.angle_max - s.angle_min) / s.angle_increment;
-  if (steps > 1e7)
-    return 0;
-  return static_cast<std::size_t>(std::lround(steps)) + 1;
-}
-
-std::string scanFault(const ScanView& s)
-{
-  if (!std::isfinite(s.stamp))
-    return "non-finite stamp";
-  if (!std::isfinite(s.angle_min) || !std::isfinite(s.angle_max) || !std::isfinite(s.angle_increment))
-    return "non-finite angle_min, angle_max or angle_increment";
-  if (s.angle_increment <= 0.0)
-    return "angle_increment <= 0";
-  if (s.angle_max < s.angle_min)
-    return "angle_max < angle_min";
-  if (!std::isfinite(s.time_increment))
-    return "non-finite time_increment";
-  if (std::abs(s.time_increment) * static_cast<double>(s.n_ranges) > kMaxScanDuration)
-    return "time_increment * beams spans more than 60 s";
-  if (std::isnan(s.range_min) || std::isnan(s.range_max) || s.range_min > s.range_max)
-    return "range_min/range_max NaN or range_min > range_max";
-  if (s.n_ranges == 0 || s.ranges == nullptr)
-    return "empty ranges";
-  const std::size_t expected = expectedBeamCount(s);
-  if (expected == 0)
-    return "angles give too many beams";
-  // Drivers round angle_max in different ways; beam i is placed at angle_min + i * increment,
-  // so a disagreement of one beam is harmless. More means the message is inconsistent.
-  const std::size_t diff = expected > s.n_ranges ? expected - s.n_ranges : s.n_ranges - expected;
-  if (diff > 1)
-    return "ranges length does not match round((angle_max - angle_min) / angle_increment) + 1";
-  if (s.n_intensities != 0 && (s.intensities == nullptr || s.n_intensities != s.n_ranges))
-    return "intensities length is neither 0 nor the ranges length";
-  return {};
-}
-
 void remapResolution(const std::vector<float>& in, std::size_t n_new, std::vector<float>& out)
 {
   out.assign(n_new, kFInf);

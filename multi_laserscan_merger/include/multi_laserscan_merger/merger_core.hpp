@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "laserscan_common/scan_view.hpp"
 #include "laserscan_common/self_filter.hpp"
 #include "multi_laserscan_merger/odometry_buffer.hpp"
 #include "multi_laserscan_merger/parameters.hpp"
@@ -18,34 +19,14 @@
 namespace multi_laserscan_merger
 {
 
-/// Read-only view of a LaserScan (no copy of the ranges).
-struct ScanView
-{
-  double stamp = 0.0;            ///< s, time of the first beam
-  double angle_min = 0.0;        ///< rad
-  double angle_max = 0.0;        ///< rad
-  double angle_increment = 0.0;  ///< rad
-  double time_increment = 0.0;   ///< s between beams
-  double range_min = 0.0;        ///< m
-  double range_max = kInf;       ///< m
-  const float* ranges = nullptr;
-  std::size_t n_ranges = 0;
-  const float* intensities = nullptr;  ///< nullptr or n_intensities == 0: none
-  std::size_t n_intensities = 0;
-};
-
-/// A scan whose beams span more than this (|time_increment| * beams, s) is malformed.
-constexpr double kMaxScanDuration = 60.0;
-
-/// "" when the scan is usable, otherwise what is wrong with it (the one error convention:
-/// CONTRIBUTING.md; a usable scan's empty string allocates nothing).
-std::string scanFault(const ScanView& scan);
+// The received scan's view and its check are every scan consumer's (laserscan_common).
+using laserscan_common::expectedBeamCount;
+using laserscan_common::kMaxScanDuration;
+using laserscan_common::scanFault;
+using laserscan_common::ScanView;
 
 /// True when the point (x, y) lies inside the polygon (crossing number; any simple polygon).
 bool insidePolygon(const std::vector<std::array<double, 2>>& polygon, double x, double y);
-
-/// Beams implied by the angles (fencepost rule); 0 when the angles are unusable.
-std::size_t expectedBeamCount(const ScanView& scan);
 
 /// The paper's resolution conversion (Eq. 1) between two 360-degree layouts:
 /// beam i_init goes to round(n_new / n_init * i_init) (mod n_new); bins that receive
