@@ -15,12 +15,12 @@ namespace laserscan_common
 /// Read-only view of a received LaserScan (no copy of the ranges).
 struct ScanView
 {
-  double stamp = 0.0;            ///< s, time of the first beam
-  double angle_min = 0.0;        ///< rad
-  double angle_max = 0.0;        ///< rad
-  double angle_increment = 0.0;  ///< rad
-  double time_increment = 0.0;   ///< s between beams
-  double range_min = 0.0;        ///< m
+  double stamp = 0.0;                                          ///< s, time of the first beam
+  double angle_min = 0.0;                                      ///< rad
+  double angle_max = 0.0;                                      ///< rad
+  double angle_increment = 0.0;                                ///< rad
+  double time_increment = 0.0;                                 ///< s between beams
+  double range_min = 0.0;                                      ///< m
   double range_max = std::numeric_limits<double>::infinity();  ///< m
   const float* ranges = nullptr;
   std::size_t n_ranges = 0;
