@@ -207,13 +207,14 @@ public:
                          std::int32_t* inside) const;
 
   /// The same test for active[i] 0 or -1 (all bits set: a vector comparison's mask, as the
-  /// converters' kernels write it; an active point must be finite, as theirs are), handing the result to `hit(first,
-  /// mask)`: lane j of mask is -1 when point first + j is active and inside, else 0. Called for the vectors of
-  /// lanes::kLanes points of each block that holds an inside point, and for a tail point (the last n % kMarkBlock) that
-  /// is inside with only lane 0 set; lanes at or beyond n are always 0 (and must not be written).
-  template <class Hit>
+  /// converters' kernels write it; an active point must be finite, as theirs are), handing the
+  /// result to `hit(first, mask)` for the vectors of lanes::kLanes points (all within n) of each
+  /// block that holds an inside point: lane j of mask is -1 when point first + j is active and
+  /// inside, else 0; and to `hit_point(i)` for each inside point of the tail (the last
+  /// n % kMarkBlock points, tested one by one).
+  template <class Hit, class HitPoint>
   inline bool forEachInside(std::size_t n, const float* xs, const float* ys, const float* zs,
-                            const std::int32_t* active, Hit&& hit) const;
+                            const std::int32_t* active, Hit&& hit, HitPoint&& hit_point) const;
 
   /// Points per block of markInside.
   static constexpr std::size_t kMarkBlock = 32;
@@ -261,12 +262,16 @@ __attribute__((always_inline)) inline std::int32_t SelfFilter::markBlock(const f
 #pragma GCC unroll 4
   for (std::size_t v = 0; v < kV; ++v)
   {
-    Floats x, y, z;
-    lanes::load(x, bx + v * kL), lanes::load(y, by + v * kL), lanes::load(z, bz + v * kL);
-    const Floats xl = act[v] ? x : lx, yl = act[v] ? y : ly, zl = act[v] ? z : lz;
-    const Floats xh = act[v] ? x : hx, yh = act[v] ? y : hy, zh = act[v] ? z : hz;
-    lx = xl < lx ? xl : lx, ly = yl < ly ? yl : ly, lz = zl < lz ? zl : lz;
-    hx = xh > hx ? xh : hx, hy = yh > hy ? yh : hy, hz = zh > hz ? zh : hz;
+    // Inactive points become NaN (all bits set), which `a < b ? a : b` (one minps) passes over:
+    // one OR per coordinate instead of a select per bound.
+    const Ints off = ~act[v];
+    Ints xi, yi, zi;
+    std::memcpy(&xi, bx + v * kL, sizeof xi), std::memcpy(&yi, by + v * kL, sizeof yi);
+    std::memcpy(&zi, bz + v * kL, sizeof zi);
+    const Floats x = reinterpret_cast<Floats>(xi | off), y = reinterpret_cast<Floats>(yi | off),
+                 z = reinterpret_cast<Floats>(zi | off);
+    lx = x < lx ? x : lx, ly = y < ly ? y : ly, lz = z < lz ? z : lz;
+    hx = x > hx ? x : hx, hy = y > hy ? y : hy, hz = z > hz ? z : hz;
   }
   // The shape tests below load the points again rather than keep the 12 vectors of the box
   // pass live (they would be spilled to the stack and reloaded, at twice the instructions).
@@ -352,10 +357,10 @@ __attribute__((always_inline)) inline std::int32_t SelfFilter::markBlock(const f
   return 1;
 }
 
-template <class Hit>
+template <class Hit, class HitPoint>
 __attribute__((always_inline)) inline bool SelfFilter::forEachInside(std::size_t n, const float* xs, const float* ys,
                                                                      const float* zs, const std::int32_t* active,
-                                                                     Hit&& hit) const
+                                                                     Hit&& hit, HitPoint&& hit_point) const
 {
   // Points come in runs that lie close together (a row of a depth image): per block of
   // kMarkBlock points, a shape is tested only when its box meets the box around the block's
@@ -373,9 +378,7 @@ __attribute__((always_inline)) inline bool SelfFilter::forEachInside(std::size_t
     {
       if (insidePosed(s, xs[i], ys[i], zs[i]))
       {
-        lanes::Ints one = {};
-        one[0] = -1;
-        hit(i, one);
+        hit_point(i);
         any = 1;
         break;
       }
@@ -399,10 +402,13 @@ __attribute__((always_inline)) inline bool SelfFilter::markInside(std::size_t n,
       const std::size_t k = b0 + i;
       mask[i] = active[k] != 0 && std::isfinite(xs[k]) && std::isfinite(ys[k]) && std::isfinite(zs[k]) ? -1 : 0;
     }
-    any |= forEachInside(m, xs + b0, ys + b0, zs + b0, mask, [&](std::size_t first, const lanes::Ints& in) {
-      for (std::size_t j = 0; j < lanes::kLanes && first + j < m; ++j)
-        inside[b0 + first + j] |= in[j] & 1;
-    });
+    any |= forEachInside(
+      m, xs + b0, ys + b0, zs + b0, mask,
+      [&](std::size_t first, const lanes::Ints& in) {
+        for (std::size_t j = 0; j < lanes::kLanes; ++j)
+          inside[b0 + first + j] |= in[j] & 1;
+      },
+      [&](std::size_t i) { inside[b0 + i] = 1; });
   }
   return any;
 }
