@@ -138,7 +138,8 @@ struct PosedShape
   bool round;     ///< a cylinder or a sphere (for a box the round term is 0 <= 0 whenever |q| <= h)
   Bounds bounds;  ///< of the padded shape, in the reference frame
   /// A box aligned with the reference axes inside the padded shape, by more than the rounding of
-  /// insidePosed: every point in it is inside (empty when the shape is too small or too turned).
+  /// insidePosed: every point in it is inside (thin for a shape turned against the axes, empty
+  /// only for one thinner than that margin).
   Bounds inner;
 };
 
