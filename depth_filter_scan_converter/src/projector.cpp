@@ -251,23 +251,15 @@ DFSC_CLONES void removeSelfPoints(const laserscan_common::SelfFilter& filter, st
   if (!c.any_near_self)
     return;  // most chunks: no point near the robot
   float* const r2s = c.r2s;
-  filter.forEachInside(n, c.xs, c.ys, c.zs, c.near_self,
-                       [r2s, n](std::size_t first, const laserscan_common::lanes::Ints& in) {
-                         using laserscan_common::lanes::Floats;
-                         constexpr std::size_t kL = laserscan_common::lanes::kLanes;
-                         if (first + kL <= n)
-                         {
-                           Floats r2;
-                           std::memcpy(&r2, r2s + first, sizeof r2);
-                           r2 = in ? Floats{} + kSelfR2 : r2;
-                           std::memcpy(r2s + first, &r2, sizeof r2);
-                         }
-                         else
-                         {
-                           for (std::size_t j = 0; first + j < n; ++j)
-                             r2s[first + j] = in[j] ? kSelfR2 : r2s[first + j];
-                         }
-                       });
+  filter.forEachInside(
+    n, c.xs, c.ys, c.zs, c.near_self,
+    [r2s](std::size_t first, const laserscan_common::lanes::Ints& in) {
+      laserscan_common::lanes::Floats r2;
+      std::memcpy(&r2, r2s + first, sizeof r2);
+      r2 = in ? laserscan_common::lanes::Floats{} + kSelfR2 : r2;
+      std::memcpy(r2s + first, &r2, sizeof r2);
+    },
+    [r2s](std::size_t i) { r2s[i] = kSelfR2; });
 }
 
 using DepthKernel = void (*)(const std::uint8_t*, std::size_t, const float*, float, float, float, float, std::uint32_t,

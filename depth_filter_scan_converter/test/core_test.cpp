@@ -863,19 +863,22 @@ TEST(SelfFilter, TheSameWithIntensitiesAndTheRangeNoiseModel)
   EXPECT_EQ(intensities[binOf(p, -12.0 * kDeg)], 5.0f);
 }
 
-TEST(SelfFilter, KeptPointsAreTheBruteForceSelectionOnRandomScenesAndRobots)
+namespace
 {
-  // Differential test of the projection with the self filter (the kernel's mark, the per-block
-  // culling, the exact test) against the plain projection and the brute-force per-point test:
-  // random rooms and random robots (1 to 12 boxes, cylinders and spheres at random poses in
-  // front of the camera), 300 x 60 clouds (a row is a chunk of 256 points and one of 44, whose
-  // last 12 are the per-point tail). The kept points with the filter must be exactly the kept
-  // points without it that contains() finds outside every shape. contains() runs here in this
-  // file's instructions, the projection in its own (maybe FMA) clone, so a point within a
-  // rounding error of a padded surface may be decided either way: a mismatch is accepted only
-  // for points within 0.1 mm of the surface (inside the shapes grown by 0.1 mm, outside the ones
-  // shrunk by 0.1 mm).
-  std::mt19937 rng(21);
+// Differential test of the projection with the self filter (the kernel's mark, the per-block
+// culling, the exact test) against the plain projection and the brute-force per-point test:
+// random rooms and random robots (1 to 12 boxes, cylinders and spheres at random poses in
+// front of the camera), 300 x 60 clouds (a row is a chunk of 256 points and one of 44, whose
+// last 12 are the per-point tail). The kept points with the filter must be exactly the kept
+// points without it that contains() finds outside every shape. contains() runs here in this
+// file's instructions, the projection in its own (maybe FMA) clone, so a point within a
+// rounding error of a padded surface may be decided either way: a mismatch is accepted only
+// for points within 0.1 mm of the surface (inside the shapes grown by 0.1 mm, outside the ones
+// shrunk by 0.1 mm). along_axes: the shapes turned by right angles about z only, so that most
+// blocks of their points take the block test's shortcut (a block in a shape's inner box).
+void expectKeptPointsAreTheBruteForceSelection(unsigned seed, bool along_axes)
+{
+  std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::size_t removed_total = 0, kept_near_total = 0, border_total = 0;
   for (int trial = 0; trial < 12; ++trial)
@@ -898,7 +901,9 @@ TEST(SelfFilter, KeptPointsAreTheBruteForceSelectionOnRandomScenesAndRobots)
                                                                         : Vector3d(half.x(), half.x(), half.z());
       s.padding = 0.02 * unit(rng) + 0.0002;
       s.origin =
-        Eigen::Isometry3d(Eigen::AngleAxisd(3.0 * unit(rng), Vector3d(unit(rng), unit(rng), 1.0).normalized()));
+        along_axes
+          ? Eigen::Isometry3d(Eigen::AngleAxisd(90 * kDeg * static_cast<int>(4 * unit(rng)), Vector3d::UnitZ()))
+          : Eigen::Isometry3d(Eigen::AngleAxisd(3.0 * unit(rng), Vector3d(unit(rng), unit(rng), 1.0).normalized()));
       shapes.push_back(s);
       s.padding += 1e-4, grown.push_back(s);
       s.padding -= 2e-4, shrunk.push_back(s);
@@ -936,6 +941,17 @@ TEST(SelfFilter, KeptPointsAreTheBruteForceSelectionOnRandomScenesAndRobots)
   EXPECT_GT(removed_total, 10000u);  // the robots do fill part of the views
   EXPECT_GT(kept_near_total, 0u);    // and points just outside their shapes are kept
   EXPECT_LE(border_total, 3u);       // rounding cases are rare
+}
+}  // namespace
+
+TEST(SelfFilter, KeptPointsAreTheBruteForceSelectionOnRandomScenesAndRobots)
+{
+  expectKeptPointsAreTheBruteForceSelection(21, false);
+}
+
+TEST(SelfFilter, KeptPointsAreTheBruteForceSelectionWithShapesAlongTheAxes)
+{
+  expectKeptPointsAreTheBruteForceSelection(22, true);
 }
 
 TEST(SelfFilter, AMovedLinkIsFilteredWhereItIsNow)

@@ -52,6 +52,10 @@ SelfFilter::SelfFilter(std::vector<RobotShape> shapes, const std::string& parame
   ShapeBoxLanes unused;
   std::fill(&unused.lo[0][0], &unused.lo[0][0] + 3 * lanes::kLanes, std::numeric_limits<float>::quiet_NaN());
   std::fill(&unused.hi[0][0], &unused.hi[0][0] + 3 * lanes::kLanes, std::numeric_limits<float>::quiet_NaN());
+  std::fill(&unused.inner_lo[0][0], &unused.inner_lo[0][0] + 3 * lanes::kLanes,
+            std::numeric_limits<float>::quiet_NaN());
+  std::fill(&unused.inner_hi[0][0], &unused.inner_hi[0][0] + 3 * lanes::kLanes,
+            std::numeric_limits<float>::quiet_NaN());
   box_lanes_.assign((shapes_.size() + lanes::kLanes - 1) / lanes::kLanes, unused);
 }
 
@@ -90,11 +94,45 @@ void SelfFilter::setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T
     // runs in float with a rounded transform, so a point it finds inside may lie a rounding
     // error outside the box; with the margin, culling never drops a shape contains() would find.
     const Eigen::Vector3d margin = Eigen::Vector3d::Constant(1e-5) + 1e-5 * (centre.cwiseAbs() + extent);
+    // The inner box: a box b of the shape's frame inside the padded solid shrunk by twice that
+    // margin (for a cylinder or sphere the box inscribed in it), then a box a aligned with the
+    // reference axes inside it, i.e. with its extent in the shape's frame |R|^T a <= b: b's
+    // bounding box |R| b scaled down until it fits, then grown along each axis while it fits.
+    // Turned by right angles it is the shrunk box itself; turned about one axis, a box thinner
+    // across that axis only.
+    const double shrink = 2.0 * margin.maxCoeff();
+    Eigen::Vector3d b = h.array() - shrink;
+    if (shape.kind == ShapeKind::kCylinder)
+      b.x() = b.y() = (radius - shrink) / std::sqrt(2.0);
+    else if (shape.kind == ShapeKind::kSphere)
+      b.setConstant((radius - shrink) / std::sqrt(3.0));
+    p.inner = Bounds();
+    if ((b.array() > 0.0).all())
+    {
+      const Eigen::Matrix3d abs_r = reference_T_shape.linear().cwiseAbs();
+      const Eigen::Vector3d inner_extent = abs_r * b;
+      Eigen::Vector3d a = inner_extent * (b.array() / (abs_r.transpose() * inner_extent).array()).minCoeff();
+      for (int axis = 0; axis < 3; ++axis)
+      {
+        const Eigen::Vector3d slack = b - abs_r.transpose() * a;
+        double grow = std::numeric_limits<double>::infinity();
+        for (int k = 0; k < 3; ++k)
+          if (abs_r(axis, k) > 0.0)
+            grow = std::min(grow, std::max(0.0, slack(k)) / abs_r(axis, k));
+        a(axis) += grow;
+      }
+      p.inner.lo = (centre - a).cast<float>();
+      p.inner.hi = (centre + a).cast<float>();
+    }
+    const bool inner = !p.inner.empty();
+    const float nan = std::numeric_limits<float>::quiet_NaN();
     ShapeBoxLanes& boxes = box_lanes_[i / lanes::kLanes];
     for (int axis = 0; axis < 3; ++axis)
     {
       boxes.lo[axis][i % lanes::kLanes] = static_cast<float>(centre(axis) - extent(axis) - margin(axis));
       boxes.hi[axis][i % lanes::kLanes] = static_cast<float>(centre(axis) + extent(axis) + margin(axis));
+      boxes.inner_lo[axis][i % lanes::kLanes] = inner ? p.inner.lo(axis) : nan;
+      boxes.inner_hi[axis][i % lanes::kLanes] = inner ? p.inner.hi(axis) : nan;
     }
     bounds_.extend(p.bounds);
   }

@@ -313,6 +313,144 @@ TEST(SelfFilterShapes, BlockTestEqualsTheBruteForcePointTestOnRandomCloudsAndSha
   EXPECT_GT(outside_near_total, 5000u);
 }
 
+TEST(SelfFilterShapes, InnerBoxLiesInsideItsShapeAndIsTightAlongTheAxes)
+{
+  // The inner box (a block inside it is inside without a point test) must lie inside the padded
+  // shape for the float point test: its corners and random points in it, for every kind at
+  // random poses. Along the axes it is the padded box itself (less a few micrometres); a sphere's
+  // is the cube inscribed in it; a box turned by 45 degrees about z still has one.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::size_t non_empty = 0;
+  for (int trial = 0; trial < 300; ++trial)
+  {
+    const auto kind = static_cast<lc::ShapeKind>(trial % 3);
+    const double a = 0.01 + 0.3 * unit(rng);
+    const Vector3d half = kind == lc::ShapeKind::kBox      ? Vector3d(a, 0.01 + 0.3 * unit(rng), 0.01 + 0.3 * unit(rng))
+                          : kind == lc::ShapeKind::kSphere ? Vector3d(a, a, a)
+                                                           : Vector3d(a, a, 0.01 + 0.3 * unit(rng));
+    // A third along the axes (turned by right angles), the others at random angles, far from
+    // the origin too (rounding grows with the coordinates).
+    const double turn = trial % 9 < 3 ? kPi / 2 * static_cast<int>(unit(rng) * 4) : 6.0 * unit(rng);
+    const Vector3d at = Vector3d(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5) * (trial % 2 ? 2.0 : 60.0);
+    const auto f = posed(shape(kind, half, 0.02 * unit(rng), "link"),
+                         pose(at, trial % 9 < 3 ? 0.0 : turn, trial % 9 < 3 ? kPi : 0.5 * turn, turn));
+    const lc::Bounds& inner = f.posed()[0].inner;
+    if (inner.empty())
+      continue;
+    ++non_empty;
+    for (int k = 0; k < 208; ++k)
+    {
+      // The 8 corners, then random points.
+      Eigen::Vector3f q;
+      for (int axis = 0; axis < 3; ++axis)
+        q(axis) = k < 8 ? ((k >> axis) & 1 ? inner.hi(axis) : inner.lo(axis))
+                        : inner.lo(axis) + static_cast<float>(unit(rng)) * (inner.hi(axis) - inner.lo(axis));
+      ASSERT_TRUE(f.contains(q.x(), q.y(), q.z()))
+        << "trial " << trial << ", " << lc::shapeKindName(kind) << ": inner point " << q.transpose() << " outside";
+    }
+  }
+  EXPECT_GT(non_empty, 250u);
+
+  const auto box = posed(shape(lc::ShapeKind::kBox, { 0.2, 0.1, 0.3 }, 0.05), pose({ 1, 2, 0.5 }, 0, 0, kPi / 2));
+  EXPECT_NEAR(box.posed()[0].inner.lo.x(), 1.0 - 0.15, 1e-4);  // x of the box turned by 90 degrees: its y
+  EXPECT_NEAR(box.posed()[0].inner.hi.y(), 2.0 + 0.25, 1e-4);
+  EXPECT_NEAR(box.posed()[0].inner.hi.z(), 0.5 + 0.35, 1e-4);
+  const auto sphere = posed(shape(lc::ShapeKind::kSphere, { 0.3, 0.3, 0.3 }, 0.0), Isometry3d::Identity());
+  EXPECT_NEAR(sphere.posed()[0].inner.hi.x(), 0.3 / std::sqrt(3.0), 1e-4);
+  const auto turned = posed(shape(lc::ShapeKind::kBox, { 0.1, 0.1, 0.1 }, 0.0), pose({ 0, 0, 0 }, 0, 0, kPi / 4));
+  EXPECT_FALSE(turned.posed()[0].inner.empty());
+  EXPECT_NEAR(turned.posed()[0].inner.hi.x(), 0.1 / std::sqrt(2.0), 1e-4);  // the square inscribed in the turned one
+  EXPECT_NEAR(turned.posed()[0].inner.hi.z(), 0.1, 1e-4);
+}
+
+TEST(SelfFilterShapes, BlocksInsideAShapeEqualTheBruteForcePointTest)
+{
+  // Differential test of the block test's shortcut (a block whose active points' box lies in a
+  // shape's inner box is inside without a point test) and of the exact test beside it: robots
+  // of 1 to 10 shapes turned by right angles (their inner box is the padded shape) or slightly
+  // or strongly tilted, runs of points inside them, along their faces, across their padded
+  // surface a few micrometres apart and beside them, some inactive. Every point must come out
+  // as the brute-force test says, and many blocks must lie in an inner box.
+  std::mt19937 rng(2121);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const std::size_t block = lc::SelfFilter::kMarkBlock;
+  std::size_t blocks_within = 0, inside_total = 0, outside_near_total = 0;
+  for (int trial = 0; trial < 80; ++trial)
+  {
+    const int count = 1 + static_cast<int>(unit(rng) * 10);
+    std::vector<lc::RobotShape> shapes;
+    std::vector<Isometry3d> poses;
+    for (int i = 0; i < count; ++i)
+    {
+      const auto kind = static_cast<lc::ShapeKind>(static_cast<int>(unit(rng) * 3) % 3);
+      const double a = 0.03 + 0.15 * unit(rng);
+      const Vector3d half = kind == lc::ShapeKind::kBox ? Vector3d(a, 0.03 + 0.15 * unit(rng), 0.03 + 0.2 * unit(rng))
+                            : kind == lc::ShapeKind::kSphere ? Vector3d(a, a, a)
+                                                             : Vector3d(a, a, 0.03 + 0.2 * unit(rng));
+      shapes.push_back(shape(kind, half, 0.03 * unit(rng), "link" + std::to_string(i)));
+      const double tilt = unit(rng) < 0.6 ? 0.0 : unit(rng) < 0.5 ? 1e-4 * unit(rng) : 0.5 * unit(rng);
+      poses.push_back(pose({ 0.4 + 1.2 * unit(rng), 1.2 * unit(rng) - 0.6, 1.0 * unit(rng) },
+                           kPi / 2 * static_cast<int>(unit(rng) * 4) + tilt, kPi / 2 * static_cast<int>(unit(rng) * 4),
+                           kPi / 2 * static_cast<int>(unit(rng) * 4) - tilt));
+    }
+    lc::SelfFilter f(shapes, "shapes");
+    f.setFramePoses(poses);
+    const std::size_t n =
+      block * (20 + static_cast<std::size_t>(unit(rng) * 60)) + static_cast<std::size_t>(unit(rng) * 40);
+    std::vector<float> xs(n), ys(n), zs(n);
+    std::vector<std::int32_t> active(n), inside(n, 0);
+    for (std::size_t b0 = 0; b0 < n; b0 += block)
+    {
+      // One run per block, in or along a random shape's padded box (its bounds): from a random
+      // point inside it, or from a face, a corner or a point just across it, with steps from
+      // micrometres to centimetres.
+      const lc::PosedShape& s =
+        f.posed()[static_cast<std::size_t>(unit(rng) * count) % static_cast<std::size_t>(count)];
+      const Eigen::Vector3d lo = s.bounds.lo.cast<double>(), hi = s.bounds.hi.cast<double>();
+      Vector3d p = lo + (hi - lo).cwiseProduct(Vector3d(unit(rng), unit(rng), unit(rng)));
+      const double where = unit(rng);
+      const int axis = static_cast<int>(unit(rng) * 3) % 3;
+      if (where < 0.3)
+        p(axis) = (unit(rng) < 0.5 ? lo(axis) : hi(axis)) + (unit(rng) - 0.5) * 2e-5;  // across a face
+      const double size = where < 0.6 ? 1e-3 : 0.02;
+      const Vector3d step = size * Vector3d(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5);
+      for (std::size_t i = b0; i < std::min(n, b0 + block); ++i, p += step)
+      {
+        xs[i] = static_cast<float>(p.x()), ys[i] = static_cast<float>(p.y()), zs[i] = static_cast<float>(p.z());
+        active[i] = unit(rng) < 0.95 ? 1 : 0;
+      }
+      // Count the blocks the shortcut takes: active points' box in a shape's inner box.
+      lc::Bounds box;
+      for (std::size_t i = b0; i < std::min(n, b0 + block); ++i)
+        if (active[i])
+          box.extend({ Eigen::Vector3f(xs[i], ys[i], zs[i]), Eigen::Vector3f(xs[i], ys[i], zs[i]) });
+      for (const lc::PosedShape& t : f.posed())
+        if (b0 + block <= n && !box.empty() && !t.inner.empty() && (box.lo.array() >= t.inner.lo.array()).all() &&
+            (box.hi.array() <= t.inner.hi.array()).all())
+        {
+          ++blocks_within;
+          break;
+        }
+    }
+    f.markInside(n, xs.data(), ys.data(), zs.data(), active.data(), inside.data());
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      bool want = false;
+      for (const lc::PosedShape& s : f.posed())
+        want = want || lc::insidePosed(s, xs[i], ys[i], zs[i]);
+      outside_near_total += !want && f.bounds().contains(xs[i], ys[i], zs[i]) ? 1 : 0;
+      want = want && active[i] != 0;
+      inside_total += want ? 1 : 0;
+      ASSERT_EQ(inside[i] != 0, want) << "trial " << trial << ", point " << i << " of " << n << ": " << xs[i] << " "
+                                      << ys[i] << " " << zs[i];
+    }
+  }
+  EXPECT_GT(blocks_within, 500u);
+  EXPECT_GT(inside_total, 40000u);
+  EXPECT_GT(outside_near_total, 5000u);
+}
+
 TEST(SelfFilterShapes, BadShapesNameThemselves)
 {
   auto error_of = [](const lc::RobotShape& s) {

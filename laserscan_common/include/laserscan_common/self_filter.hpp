@@ -137,6 +137,10 @@ struct PosedShape
   float radius2, radial_weight, axial_weight;
   bool round;     ///< a cylinder or a sphere (for a box the round term is 0 <= 0 whenever |q| <= h)
   Bounds bounds;  ///< of the padded shape, in the reference frame
+  /// A box aligned with the reference axes inside the padded shape, by more than the rounding of
+  /// insidePosed: every point in it is inside (thin for a shape turned against the axes, empty
+  /// only for one thinner than that margin).
+  Bounds inner;
 };
 
 /// The test of one point against one posed shape (the whole filter is the OR over shapes).
@@ -153,8 +157,10 @@ inline bool insidePosed(const PosedShape& s, float x, float y, float z)
 /// no box), for the block test: one vector comparison tests a block's box against 8 shapes.
 struct alignas(32) ShapeBoxLanes
 {
-  float lo[3][lanes::kLanes];
+  float lo[3][lanes::kLanes];  ///< culling box (PosedShape::bounds grown against rounding)
   float hi[3][lanes::kLanes];
+  float inner_lo[3][lanes::kLanes];  ///< PosedShape::inner (NaN when empty)
+  float inner_hi[3][lanes::kLanes];
 };
 
 /// The shapes of one robot, their frames, and their poses for the message being filtered.
@@ -202,13 +208,14 @@ public:
                          std::int32_t* inside) const;
 
   /// The same test for active[i] 0 or -1 (all bits set: a vector comparison's mask, as the
-  /// converters' kernels write it), handing the result to `hit(first, mask)`: lane j of mask is
-  /// -1 when point first + j is active and inside, else 0. Called for the vectors of lanes::kLanes points of each block
-  /// that holds an inside point, and for a tail point (the last n % kMarkBlock) that is inside
-  /// with only lane 0 set; lanes at or beyond n are always 0 (and must not be written).
-  template <class Hit>
+  /// converters' kernels write it; an active point must be finite, as theirs are), handing the
+  /// result to `hit(first, mask)` for the vectors of lanes::kLanes points (all within n) of each
+  /// block that holds an inside point: lane j of mask is -1 when point first + j is active and
+  /// inside, else 0; and to `hit_point(i)` for each inside point of the tail (the last
+  /// n % kMarkBlock points, tested one by one).
+  template <class Hit, class HitPoint>
   inline bool forEachInside(std::size_t n, const float* xs, const float* ys, const float* zs,
-                            const std::int32_t* active, Hit&& hit) const;
+                            const std::int32_t* active, Hit&& hit, HitPoint&& hit_point) const;
 
   /// Points per block of markInside.
   static constexpr std::size_t kMarkBlock = 32;
@@ -227,9 +234,11 @@ private:
 };
 
 /// One full block of kMarkBlock points: the box around its active points (vector min/max over
-/// its 4 vectors, then across lanes), compared with 8 shapes' culling boxes at once; the exact
-/// test runs only for the shapes whose box it meets (a box without the round term). Inactive
-/// points (maybe NaN) are left out of the box and never marked.
+/// its 4 vectors, then across lanes), compared with 8 shapes' boxes at once. A block whose box
+/// lies in a shape's inner box is inside without a point test (the robot's points come in runs
+/// on its parts: most blocks of an arm's points in a camera's view); otherwise the exact test
+/// runs only for the shapes whose culling box it meets (a box without the round term). Inactive
+/// points (maybe NaN) are left out of the box and never marked; active points must be finite.
 template <class Hit>
 __attribute__((always_inline)) inline std::int32_t SelfFilter::markBlock(const float* bx, const float* by,
                                                                          const float* bz, const std::int32_t* ba,
@@ -254,18 +263,37 @@ __attribute__((always_inline)) inline std::int32_t SelfFilter::markBlock(const f
 #pragma GCC unroll 4
   for (std::size_t v = 0; v < kV; ++v)
   {
-    Floats x, y, z;
-    lanes::load(x, bx + v * kL), lanes::load(y, by + v * kL), lanes::load(z, bz + v * kL);
-    const Floats xl = act[v] ? x : lx, yl = act[v] ? y : ly, zl = act[v] ? z : lz;
-    const Floats xh = act[v] ? x : hx, yh = act[v] ? y : hy, zh = act[v] ? z : hz;
-    lx = xl < lx ? xl : lx, ly = yl < ly ? yl : ly, lz = zl < lz ? zl : lz;
-    hx = xh > hx ? xh : hx, hy = yh > hy ? yh : hy, hz = zh > hz ? zh : hz;
+    // Inactive points become NaN (all bits set), which `a < b ? a : b` (one minps) passes over:
+    // one OR per coordinate instead of a select per bound.
+    const Ints off = ~act[v];
+    Ints xi, yi, zi;
+    std::memcpy(&xi, bx + v * kL, sizeof xi), std::memcpy(&yi, by + v * kL, sizeof yi);
+    std::memcpy(&zi, bz + v * kL, sizeof zi);
+    const Floats x = reinterpret_cast<Floats>(xi | off), y = reinterpret_cast<Floats>(yi | off),
+                 z = reinterpret_cast<Floats>(zi | off);
+    lx = x < lx ? x : lx, ly = y < ly ? y : ly, lz = z < lz ? z : lz;
+    hx = x > hx ? x : hx, hy = y > hy ? y : hy, hz = z > hz ? z : hz;
   }
   // The shape tests below load the points again rather than keep the 12 vectors of the box
   // pass live (they would be spilled to the stack and reloaded, at twice the instructions).
   __asm__ volatile("" ::: "memory");
   const float blx = lanes::minLane(lx), bly = lanes::minLane(ly), blz = lanes::minLane(lz);
   const float bhx = lanes::maxLane(hx), bhy = lanes::maxLane(hy), bhz = lanes::maxLane(hz);
+  for (std::size_t g = 0; g < box_lanes_.size(); ++g)
+  {
+    const ShapeBoxLanes& b = box_lanes_[g];
+    Floats lo0, lo1, lo2, hi0, hi1, hi2;
+    lanes::load(lo0, b.inner_lo[0]), lanes::load(lo1, b.inner_lo[1]), lanes::load(lo2, b.inner_lo[2]);
+    lanes::load(hi0, b.inner_hi[0]), lanes::load(hi1, b.inner_hi[1]), lanes::load(hi2, b.inner_hi[2]);
+    const Ints within = (lo0 <= blx) & (hi0 >= bhx) & (lo1 <= bly) & (hi1 >= bhy) & (lo2 <= blz) & (hi2 >= bhz);
+    if (lanes::orLanes(within))
+    {
+#pragma GCC unroll 4
+      for (std::size_t v = 0; v < kV; ++v)
+        hit(first + v * kL, act[v]);
+      return 1;
+    }
+  }
   const Ints lane_bit = { 1, 2, 4, 8, 16, 32, 64, 128 };
   Ints inside[kV];
 #pragma GCC unroll 4
@@ -330,10 +358,10 @@ __attribute__((always_inline)) inline std::int32_t SelfFilter::markBlock(const f
   return 1;
 }
 
-template <class Hit>
+template <class Hit, class HitPoint>
 __attribute__((always_inline)) inline bool SelfFilter::forEachInside(std::size_t n, const float* xs, const float* ys,
                                                                      const float* zs, const std::int32_t* active,
-                                                                     Hit&& hit) const
+                                                                     Hit&& hit, HitPoint&& hit_point) const
 {
   // Points come in runs that lie close together (a row of a depth image): per block of
   // kMarkBlock points, a shape is tested only when its box meets the box around the block's
@@ -351,9 +379,7 @@ __attribute__((always_inline)) inline bool SelfFilter::forEachInside(std::size_t
     {
       if (insidePosed(s, xs[i], ys[i], zs[i]))
       {
-        lanes::Ints one = {};
-        one[0] = -1;
-        hit(i, one);
+        hit_point(i);
         any = 1;
         break;
       }
@@ -366,18 +392,24 @@ __attribute__((always_inline)) inline bool SelfFilter::markInside(std::size_t n,
                                                                   const float* zs, const std::int32_t* active,
                                                                   std::int32_t* inside) const
 {
-  // active 0/1 -> 0/-1, one block at a time.
+  // active 0/1 -> 0/-1 (a non-finite point, inside no shape, inactive), one block at a time.
   bool any = false;
   for (std::size_t b0 = 0; b0 < n; b0 += kMarkBlock)
   {
     const std::size_t m = std::min(kMarkBlock, n - b0);
     std::int32_t mask[kMarkBlock];
     for (std::size_t i = 0; i < m; ++i)
-      mask[i] = active[b0 + i] != 0 ? -1 : 0;
-    any |= forEachInside(m, xs + b0, ys + b0, zs + b0, mask, [&](std::size_t first, const lanes::Ints& in) {
-      for (std::size_t j = 0; j < lanes::kLanes && first + j < m; ++j)
-        inside[b0 + first + j] |= in[j] & 1;
-    });
+    {
+      const std::size_t k = b0 + i;
+      mask[i] = active[k] != 0 && std::isfinite(xs[k]) && std::isfinite(ys[k]) && std::isfinite(zs[k]) ? -1 : 0;
+    }
+    any |= forEachInside(
+      m, xs + b0, ys + b0, zs + b0, mask,
+      [&](std::size_t first, const lanes::Ints& in) {
+        for (std::size_t j = 0; j < lanes::kLanes; ++j)
+          inside[b0 + first + j] |= in[j] & 1;
+      },
+      [&](std::size_t i) { inside[b0 + i] = 1; });
   }
   return any;
 }
