@@ -226,6 +226,34 @@ def rect_circle_distance(c, h, yaw, centre, radius):
     return np.maximum(np.hypot(np.maximum(lx, 0.0), np.maximum(ly, 0.0)) - radius, 0.0)
 
 
+#: People give way to the robot (closed loop): a person stops while walking on would bring them
+#: closer than YIELD_CLEARANCE m to the robot's shape within the next YIELD_AHEAD m, and walks on
+#: once it would not (the people of the paper's experiment are people: they do not walk into a
+#: robot, as the pedestrian models of social-navigation simulators do not): half a second's walk
+#: ahead, so a person stops 0.3 - 0.8 m from the robot.
+YIELD_AHEAD = 0.5
+YIELD_CLEARANCE = 0.3
+_YIELD_SAMPLES = np.linspace(0.05, YIELD_AHEAD, 10)  # every 5 cm of the way ahead
+
+
+def people_giving_way(world, parts, rel):
+    """Whether each person must wait at ``rel`` for the robot's parts (map; as
+    ``ClosedLoopSim.parts``): a sample of their next YIELD_AHEAD m of walking comes closer than
+    YIELD_CLEARANCE to the robot, and closer than they are now (a person walking away from the
+    robot, or past it, walks on).  (P,) bool."""
+    if not world.people:
+        return np.zeros(0, bool)
+    pc, ph, pyaw = parts
+    now = world.people_ahead(rel, [0.0])          # (1, P, 2)
+    ahead = world.people_ahead(rel, _YIELD_SAMPLES)  # (D, P, 2)
+
+    def gap(points):  # (n, P): distance of each person's disc from the closest robot part
+        return rect_circle_distance(pc[:, None, None, :2], ph[:, None, None, :2], pyaw[:, None, None],
+                                    points[None], world.person_r[None, None, :]).min(axis=0)
+    closest = gap(ahead).min(axis=0)
+    return (closest < YIELD_CLEARANCE) & (closest < gap(now)[0])
+
+
 class CollisionMonitor:
     """The robot's shape against the world's solids: distances per obstacle, contact onsets,
     the minimum clearance.  Obstacles (names and kinds fixed at construction): boxes and glass
@@ -440,7 +468,11 @@ class ClosedLoopSim:
         self.odom_twist = self.odometry.step(fwd, dth, dt, self.rng, lateral=lat)
         self.k += 1
         rec, rel = self.run_record, self.rel
-        clearance = self.monitor.check(self.parts(), rel, math.hypot(self.base.vx, self.base.vy))
+        parts = self.parts()
+        # The people decide at the step whether to give way; the robot moved first (the contacts
+        # are judged after both).
+        self.world.hold(rel, people_giving_way(self.world, parts, rel))
+        clearance = self.monitor.check(parts, rel, math.hypot(self.base.vx, self.base.vy))
         if self.k > self.goal_step:  # path and clearance count from the goal on
             rec.path_length_m += math.hypot(self.base.x - x0, self.base.y - y0)
             rec.min_clearance_m = min(rec.min_clearance_m, clearance)
