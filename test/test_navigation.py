@@ -37,6 +37,7 @@ def test_the_readme_lists_every_navigator_parameter():
     ("self_padding", -0.1, "self_padding"), ("control_rate", float("inf"), "control_rate"),
     ("obstacle_memory", -1.0, "obstacle_memory"), ("planner", 1, "planner"), ("planner_rate", 0, "planner_rate"),
     ("planner_resolution", 2.0, "planner_resolution"), ("planner_memory", -1.0, "planner_memory"),
+    ("planner_clearing_range", -0.5, "planner_clearing_range"),
     ("planner_inflation", -0.1, "planner_inflation"), ("carrot_distance", 0, "carrot_distance"),
 ])
 def test_check_config_names_each_bad_navigator_value(key, value, says):

@@ -90,8 +90,9 @@ void GlobalPlanner::clearRay(long x0, long y0, long x1, long y1, bool last, std:
   }
 }
 
-void GlobalPlanner::observe(std::size_t source, const Eigen::Vector2d& origin, const std::vector<Eigen::Vector2d>& points,
-                            const std::vector<Eigen::Vector2d>& free_ends, double time)
+void GlobalPlanner::observe(std::size_t source, const Eigen::Vector2d& origin,
+                            const std::vector<Eigen::Vector2d>& points, const std::vector<Eigen::Vector2d>& free_ends,
+                            double time)
 {
   const std::uint64_t bit = sourceBit(source);
   const double range = settings_.clearing_range;

@@ -393,11 +393,10 @@ void ReactiveNavigatorRos::collectObstacles(const ros::Time& time, bool up_to_ti
     observation.begin = points_.size();
     if (scan != nullptr)
     {
-      const ScanView view{ scan->ranges.data(), scan->ranges.size(), scan->angle_min, scan->angle_increment,
-                           scan->range_min,     scan->range_max };
+      const ScanView view{ scan->ranges.data(),   scan->ranges.size(), scan->angle_min,
+                           scan->angle_increment, scan->range_min,     scan->range_max };
       appendScanPoints(view, sensor_to_robot, points_);
-      appendScanNoReturns(view, sensor_to_robot, navigator_parameters_.planner_clearing_range,
-                          observation.free_ends);
+      appendScanNoReturns(view, sensor_to_robot, navigator_parameters_.planner_clearing_range, observation.free_ends);
     }
     else
     {

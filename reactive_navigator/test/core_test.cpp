@@ -385,8 +385,8 @@ TEST(NavigatorCore, APersonWhoWalkedThroughTheCorridorLeavesNoObstacleOnceTheCor
 {
   NavigatorParameters p;
   ObstaclePoints walls, person = walls;
-  addWallAlongY(walls, 5.05, -0.95, 0.95);     // the corridor's end, 20 cells
-  addWallAlongY(person, 2.05, -0.15, 0.15);    // a person crossing it, 4 cells
+  addWallAlongY(walls, 5.05, -0.95, 0.95);   // the corridor's end, 20 cells
+  addWallAlongY(person, 2.05, -0.15, 0.15);  // a person crossing it, 4 cells
   person.insert(person.end(), walls.begin(), walls.end());
   const Eigen::Vector3f lidar(0.3f, 0.0f, 0.2f);
   NavigatorCore clearing(p);

@@ -182,8 +182,8 @@ TEST(GlobalPlanner, RaysClearUpToTheClearingRangeOnly)
   planner.mark(2.55, 0.05, 0.0);
   planner.mark(3.55, 0.05, 0.0);
   planner.observe(0, { 0.05, 0.05 }, { { 8.05, 0.05 } }, {}, 0.1);  // a point 8 m away
-  EXPECT_EQ(planner.occupiedCells(), 2u);  // 3.55 beyond the range stays; 8.05 marked
-  settings.clearing_range = 0.0;  // no clearing at all
+  EXPECT_EQ(planner.occupiedCells(), 2u);                           // 3.55 beyond the range stays; 8.05 marked
+  settings.clearing_range = 0.0;                                    // no clearing at all
   GlobalPlanner expiring{ settings };
   expiring.mark(2.55, 0.05, 0.0);
   expiring.observe(0, { 0.05, 0.05 }, {}, { { 4.05, 0.05 } }, 0.1);

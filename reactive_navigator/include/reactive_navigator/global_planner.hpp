@@ -72,12 +72,12 @@ private:
 
   struct Cell
   {
-    double time;           // when last marked
-    std::uint64_t sources; // bit per source that marked it and has not cleared it since
+    double time;            // when last marked
+    std::uint64_t sources;  // bit per source that marked it and has not cleared it since
   };
   PlannerSettings settings_;
   std::unordered_map<std::int64_t, Cell> cells_;  // obstacle cells
-  std::int64_t last_key_ = -1;  // the last cell marked (runs of points share cells)
+  std::int64_t last_key_ = -1;                    // the last cell marked (runs of points share cells)
   double last_time_ = -1.0;
   std::uint64_t last_bit_ = 0;
   std::unordered_set<std::int64_t> traced_;  // observe(): end cells whose ray was traced

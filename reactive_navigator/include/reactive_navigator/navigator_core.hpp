@@ -46,9 +46,9 @@ using ObstaclePoints = std::vector<Eigen::Vector3f>;
 /// along its rays before marking its points (global_planner.hpp). Robot frame (m).
 struct Observation
 {
-  std::size_t source = 0;            ///< the sensor (0 - 63): it clears only the cells it marked
+  std::size_t source = 0;             ///< the sensor (0 - 63): it clears only the cells it marked
   Eigen::Vector3f origin{ 0, 0, 0 };  ///< where its rays start
-  std::size_t begin = 0;             ///< its points: obstacles[begin, end)
+  std::size_t begin = 0;              ///< its points: obstacles[begin, end)
   std::size_t end = 0;
   ObstaclePoints free_ends;  ///< ends of its rays that saw nothing (a scan's +Inf beams)
 };
