@@ -169,7 +169,8 @@ def run_one(mode, points, route, workdir, seed=0, timeout_s=60.0):
            "system_cpu_percent": sum(v["cpu_seconds"] for v in figures.values()) * per_simulated_s,
            "navigator_memory_mb": nav[0].get("peak_rss_mb", nav[0]["rss_mb"]),
            "simulated_s": record["simulated_s"], "lockstep_timeouts": record.get("lockstep_timeouts", 0),
-           "collided_with": record.get("collided_with", []), "wall_s": record.get("wall_s"),
+           "collided_with": record.get("collided_with", []), "people_waited_s": record.get("people_waited_s", {}),
+           "wall_s": record.get("wall_s"),
            "process_cpu_percent": {k: v["cpu_seconds"] * per_simulated_s for k, v in figures.items()}}
     return row, record
 

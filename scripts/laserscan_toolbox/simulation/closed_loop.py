@@ -109,7 +109,8 @@ class RunRecord:
 
     Times are simulated seconds.  trajectory: [t, x, y, yaw] at every control step (t relative
     to the start, map frame).  collided_with: one entry per contact onset {name, kind, t,
-    robot_speed}, kind "3d" (no lidar plane cuts the obstacle), "glass" or "2d"."""
+    robot_speed}, kind "3d" (no lidar plane cuts the obstacle), "glass" or "2d".  people_waited_s:
+    per person who gave way to the robot, the simulated seconds they stood."""
     route: str
     seed: int
     points_per_camera: int
@@ -126,6 +127,7 @@ class RunRecord:
     lockstep_timeouts: int = 0           # control steps the navigator did not answer in time
     wall_s: float = 0.0
     collided_with: List[dict] = field(default_factory=list)
+    people_waited_s: dict = field(default_factory=dict)
     trajectory: List[Tuple[float, float, float, float]] = field(default_factory=list)
 
     def to_json(self):
@@ -472,6 +474,9 @@ class ClosedLoopSim:
         # The people decide at the step whether to give way; the robot moved first (the contacts
         # are judged after both).
         self.world.hold(rel, people_giving_way(self.world, parts, rel))
+        for person, waiting in zip(self.world.people, self.world.waiting()):
+            if waiting:
+                rec.people_waited_s[person.name] = rec.people_waited_s.get(person.name, 0.0) + dt
         clearance = self.monitor.check(parts, rel, math.hypot(self.base.vx, self.base.vy))
         if self.k > self.goal_step:  # path and clearance count from the goal on
             rec.path_length_m += math.hypot(self.base.x - x0, self.base.y - y0)
