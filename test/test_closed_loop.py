@@ -118,6 +118,51 @@ def test_a_walking_person_is_hit_where_they_are_at_the_time():
     assert mon.onsets == [("walker", "2d", 4.6, 0.0)]  # it walked into the robot
 
 
+def _walk(mon, robot_parts, seconds, dt=0.02):
+    """Steps the people as ClosedLoopSim.advance does (give way, then contacts) with the robot
+    standing at robot_parts; returns the people's positions per step."""
+    positions = []
+    for k in range(1, int(round(seconds / dt)) + 1):
+        rel = k * dt
+        mon.world.hold(rel, cl.people_giving_way(mon.world, robot_parts, rel))
+        mon.check(robot_parts, rel)
+        positions.append(mon.world.people_xy([rel])[0].copy())
+    return np.array(positions)
+
+
+def test_a_person_whose_way_the_robot_blocks_waits_and_never_touches_it():
+    walker = Person("walker", [(5.0, 0.0), (5.0, 10.0)], 1.0, phase=0.0, radius=0.2)
+    mon, robot = _monitor(people=[walker])
+    parts = _parts_at(robot, 5.0, 5.0, 0.0)  # across the person's path: the body's side at y 4.76
+    positions = _walk(mon, parts, 10.0)
+    assert mon.onsets == []
+    y = positions[:, 0, 1]
+    # Stopped where walking YIELD_AHEAD (0.5 m) on would bring them within YIELD_CLEARANCE (0.3 m)
+    # of the body's side (a step is 2 cm of walking).
+    assert y.max() == pytest.approx(4.76 - 0.2 - cl.YIELD_CLEARANCE - cl.YIELD_AHEAD, abs=0.021)
+    assert y[-1] == y.max() and mon.world.waiting()[0]
+    # The robot goes: the person walks on from where they stood, at their speed.
+    free = _parts_at(robot, 1.0, 5.0, 0.0)
+    mon.world.hold(10.02, cl.people_giving_way(mon.world, free, 10.02))
+    assert not mon.world.waiting()[0]
+    after = mon.world.people_xy([10.02, 11.02])[:, 0, 1]
+    assert after[0] == pytest.approx(y[-1], abs=1e-9) and after[1] - after[0] == pytest.approx(1.0)
+
+
+def test_a_person_with_a_free_way_is_not_slowed_and_the_open_loop_people_are_unchanged():
+    walker = Person("walker", [(5.0, 0.0), (5.0, 10.0)], 1.0, phase=0.0, radius=0.2)
+    # The robot beside the path (its front 0.35 m from the person's side as they pass: more than
+    # YIELD_CLEARANCE), and right behind them (0.06 m, closer than that, but they walk away): no
+    # waiting.
+    _, robot = _monitor()
+    for parts in (_parts_at(robot, 5.0 + 0.2 + 0.37 + 0.35, 5.0, 0.0), _parts_at(robot, 5.0, -0.5, 0.0)):
+        mon, _ = _monitor(people=[Person(**vars(walker))])
+        positions = _walk(mon, parts, 8.0)
+        fresh = World(bounds=(0, 10, 0, 10), ceiling=3.0, people=[Person(**vars(walker))])
+        assert np.array_equal(positions, fresh.people_xy(0.02 * np.arange(1, 401)))
+        assert not mon.world.waiting().any()
+
+
 # ----- runs ---------------------------------------------------------------------------------------
 def _run(seed, timeout=2.0, **kw):
     config = dict(route="table", seed=seed, camera_points=2000, sensor_rate=5.0, goal_delay_s=0.2,

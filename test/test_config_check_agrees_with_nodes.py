@@ -248,7 +248,8 @@ NAVIGATOR_CHANGES = [
     ("path_count", 1002), ("blocked_timeout", 0.0), ("self_padding", 0.0), ("self_padding", -0.01),
     ("self_padding", math.inf), ("obstacle_memory", 0.0), ("obstacle_memory", -1.0), ("planner_rate", 0.0),
     ("planner_resolution", 1.0), ("planner_resolution", 1.5), ("planner_resolution", 0.0),
-    ("planner_memory", 0.0), ("planner_inflation", 0.0), ("planner_inflation", -0.1), ("planner_clearance", -0.1),
+    ("planner_memory", 0.0), ("planner_clearing_range", 0.0), ("planner_clearing_range", -1.0),
+    ("planner_clearing_range", math.inf), ("planner_inflation", 0.0), ("planner_inflation", -0.1), ("planner_clearance", -0.1),
     ("planner_clearance", math.nan), ("planner_margin", 0.0), ("carrot_distance", 0.0), ("carrot_distance", 0.5),
 ]
 

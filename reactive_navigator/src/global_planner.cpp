@@ -34,21 +34,104 @@ std::int64_t GlobalPlanner::key(long ix, long iy) const
   return (static_cast<std::int64_t>(ix + (1L << 30)) << 31) | static_cast<std::int64_t>(iy + (1L << 30));
 }
 
-void GlobalPlanner::mark(double x, double y, double time)
+namespace
+{
+std::uint64_t sourceBit(std::size_t source)
+{
+  return std::uint64_t{ 1 } << std::min(source, kPlannerSources - 1);
+}
+}  // namespace
+
+void GlobalPlanner::mark(double x, double y, double time, std::size_t source)
 {
   const std::int64_t k = key(index(x), index(y));
-  if (k == last_key_ && time == last_time_)  // neighbouring points of a cloud or scan share cells
+  const std::uint64_t bit = sourceBit(source);
+  if (k == last_key_ && time == last_time_ && bit == last_bit_)  // neighbouring points share cells
     return;
   last_key_ = k;
   last_time_ = time;
-  cells_[k] = time;
+  last_bit_ = bit;
+  auto [cell, added] = cells_.try_emplace(k, Cell{ time, bit });
+  if (!added)
+  {
+    cell->second.time = std::max(cell->second.time, time);
+    cell->second.sources |= bit;
+  }
+}
+
+void GlobalPlanner::clearRay(long x0, long y0, long x1, long y1, bool last, std::uint64_t source_bit)
+{
+  // Bresenham's line through the cells; a cell off the line's 8-connected walk is not crossed.
+  const long dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
+  const long sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
+  long error = dx + dy;
+  for (long x = x0, y = y0;;)
+  {
+    const bool end = x == x1 && y == y1;
+    if (!end || last)
+    {
+      const auto it = cells_.find(key(x, y));
+      if (it != cells_.end() && (it->second.sources &= ~source_bit) == 0)
+        cells_.erase(it);
+    }
+    if (end)
+      return;
+    const long e2 = 2 * error;
+    if (e2 >= dy)
+    {
+      error += dy;
+      x += sx;
+    }
+    if (e2 <= dx)
+    {
+      error += dx;
+      y += sy;
+    }
+  }
+}
+
+void GlobalPlanner::observe(std::size_t source, const Eigen::Vector2d& origin,
+                            const std::vector<Eigen::Vector2d>& points, const std::vector<Eigen::Vector2d>& free_ends,
+                            double time)
+{
+  const std::uint64_t bit = sourceBit(source);
+  const double range = settings_.clearing_range;
+  if (range > 0.0 && !cells_.empty())
+  {
+    const long ox = index(origin.x()), oy = index(origin.y());
+    traced_.clear();
+    std::int64_t previous = -1;  // consecutive points of a scan or cloud row often share a cell
+    const auto trace = [&](const Eigen::Vector2d& end, bool hit) {
+      Eigen::Vector2d to = end;
+      const double length = (end - origin).norm();
+      if (length > range)  // beyond the clearing range: the ray clears up to it, its end too
+      {
+        to = origin + (end - origin) * (range / length);
+        hit = false;
+      }
+      const long ex = index(to.x()), ey = index(to.y());
+      // A ray that ends on an obstacle and one that passes through the same cell differ in their
+      // last cell only: keyed apart.
+      const std::int64_t k = 2 * key(ex, ey) + (hit ? 1 : 0);
+      if (k == previous || !traced_.insert(k).second)
+        return;
+      previous = k;
+      clearRay(ox, oy, ex, ey, !hit, bit);
+    };
+    for (const auto& p : points)
+      trace(p, true);
+    for (const auto& p : free_ends)
+      trace(p, false);
+  }
+  for (const auto& p : points)
+    mark(p.x(), p.y(), time, source);
 }
 
 bool GlobalPlanner::plan(double time, const Eigen::Vector2d& start, const Eigen::Vector2d& goal)
 {
   path_.clear();
   for (auto it = cells_.begin(); it != cells_.end();)
-    it = time - it->second > settings_.memory ? cells_.erase(it) : std::next(it);
+    it = time - it->second.time > settings_.memory ? cells_.erase(it) : std::next(it);
 
   const double r = settings_.resolution;
   const long x0 = index(std::min(start.x(), goal.x()) - settings_.margin);

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
+#include <string>
 #include <unordered_map>
 
 #include <mrpt/config/CConfigFileMemory.h>
@@ -88,6 +90,7 @@ PlannerSettings plannerSettings(const NavigatorParameters& p)
   s.inflation = p.planner_inflation;
   s.clearance = p.planner_clearance;
   s.margin = p.planner_margin;
+  s.clearing_range = p.planner_clearing_range;
   return s;
 }
 
@@ -287,14 +290,30 @@ struct NavigatorCore::Impl : public mrpt::nav::CRobot2NavInterface
     target = point;
   }
 
-  // The step's own points (odometry frame) into the planner's grid: in 3d those the robot's shape
-  // reaches (MRPT ignores the points above its top).
-  void markObstacles(double now)
+  // One sensor's points of the step, d.obstacles[begin, end), into the planner's grid (odometry
+  // frame): in 3d those the robot's shape reaches (MRPT ignores the points above its top). With
+  // an origin, its rays clear the cells it marked before (global_planner.hpp).
+  std::vector<Eigen::Vector2d> marked, free_ends;
+  void markObstacles(double now, std::size_t begin, std::size_t end, const Observation* observation)
   {
     const double c = std::cos(pose.yaw), s = std::sin(pose.yaw);
-    for (const auto& p : obstacles)
-      if (!parameters.volumetric() || shapeAt(parameters, p.z()) != nullptr)
-        planner->mark(pose.x + c * p.x() - s * p.y(), pose.y + s * p.x() + c * p.y(), now);
+    const auto odom = [&](const Eigen::Vector3f& p) {
+      return Eigen::Vector2d(pose.x + c * p.x() - s * p.y(), pose.y + s * p.x() + c * p.y());
+    };
+    marked.clear();
+    for (std::size_t i = begin; i < end; ++i)
+      if (!parameters.volumetric() || shapeAt(parameters, obstacles[i].z()) != nullptr)
+        marked.push_back(odom(obstacles[i]));
+    if (observation == nullptr)
+    {
+      for (const auto& p : marked)
+        planner->mark(p.x(), p.y(), now);
+      return;
+    }
+    free_ends.clear();
+    for (const auto& p : observation->free_ends)
+      free_ends.push_back(odom(p));
+    planner->observe(observation->source, odom(observation->origin), marked, free_ends, now);
   }
 
   // Replans at planner_rate and aims MRPT at the carrot; returns the path's length left to the
@@ -494,7 +513,8 @@ void NavigatorCore::setGoal(double x, double y)
   impl_->remaining_path = std::nan("");
 }
 
-Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints& obstacles)
+Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints& obstacles,
+                            const std::vector<Observation>& observations)
 {
   Impl& d = *impl_;
   useCallersClock(time);
@@ -509,15 +529,41 @@ Command NavigatorCore::step(double time, const Pose2& pose, const ObstaclePoints
   d.obstacles.clear();
   d.self_points = 0;
   d.remembered_points = 0;
-  for (const auto& point : obstacles)
+  const auto keep = [&d](std::size_t begin, std::size_t end, const ObstaclePoints& points) {
+    for (std::size_t i = begin; i < end; ++i)
+    {
+      if (d.isOwnBody(points[i]))
+        ++d.self_points;
+      else
+        d.obstacles.push_back(points[i]);
+    }
+  };
+  if (observations.empty())
   {
-    if (d.isOwnBody(point))
-      ++d.self_points;
-    else
-      d.obstacles.push_back(point);
+    keep(0, obstacles.size(), obstacles);
+    if (d.planner)
+      d.markObstacles(time, 0, d.obstacles.size(), nullptr);
   }
-  if (d.planner)
-    d.markObstacles(time);
+  std::size_t next = 0;
+  for (const auto& o : observations)
+  {
+    if (o.begin != next || o.end < o.begin || o.end > obstacles.size())
+      throw std::invalid_argument("NavigatorCore::step: observation points [" + std::to_string(o.begin) + ", " +
+                                  std::to_string(o.end) + ") do not follow the one before (ending at " +
+                                  std::to_string(next) + ") within the " + std::to_string(obstacles.size()) +
+                                  " points");
+    next = o.end;
+  }
+  if (!observations.empty() && next != obstacles.size())
+    throw std::invalid_argument("NavigatorCore::step: the observations hold " + std::to_string(next) + " of the " +
+                                std::to_string(obstacles.size()) + " points");
+  for (const auto& o : observations)
+  {
+    const std::size_t kept = d.obstacles.size();
+    keep(o.begin, o.end, obstacles);
+    if (d.planner)
+      d.markObstacles(time, kept, d.obstacles.size(), &o);
+  }
   if (d.parameters.obstacle_memory > 0.0)
     d.remember(time);
 

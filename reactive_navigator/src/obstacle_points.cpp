@@ -64,6 +64,21 @@ std::size_t appendScanPoints(const ScanView& scan, const Eigen::Isometry3d& sens
   return out.size() - before;
 }
 
+std::size_t appendScanNoReturns(const ScanView& scan, const Eigen::Isometry3d& sensor_to_robot, double distance,
+                                ObstaclePoints& out)
+{
+  const std::size_t before = out.size();
+  const Eigen::Isometry3f transform = sensor_to_robot.cast<float>();
+  for (std::size_t i = 0; i < scan.count; ++i)
+    if (scan.ranges[i] == std::numeric_limits<float>::infinity())
+    {
+      const double angle = scan.angle_min + static_cast<double>(i) * scan.angle_increment;
+      out.push_back(transform * Eigen::Vector3f(static_cast<float>(distance * std::cos(angle)),
+                                                static_cast<float>(distance * std::sin(angle)), 0.0f));
+    }
+  return out.size() - before;
+}
+
 std::size_t appendCloudPoints(const laserscan_common::CloudView& cloud, const Eigen::Isometry3d& sensor_to_robot,
                               double band_min, double band_max, ObstaclePoints& out)
 {

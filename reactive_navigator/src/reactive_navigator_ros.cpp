@@ -345,9 +345,11 @@ bool ReactiveNavigatorRos::poseAt(const ros::Time& time, bool latest, Pose2& pos
 void ReactiveNavigatorRos::collectObstacles(const ros::Time& time, bool up_to_time)
 {
   points_.clear();
+  observations_.clear();
   const ros::Time target_time = time;
-  for (auto& s : sources_)
+  for (std::size_t source = 0; source < sources_.size(); ++source)
   {
+    Source& s = sources_[source];
     // The newest message stamped up to the step's time (or the newest of all).
     auto pick = [&](const auto& queue, const auto& message_of) -> decltype(&queue.back()) {
       for (auto it = queue.rbegin(); it != queue.rend(); ++it)
@@ -386,15 +388,24 @@ void ReactiveNavigatorRos::collectObstacles(const ros::Time& time, bool up_to_ti
            "no transform for '" + s.topic + "' from '" + header->frame_id + "' at its stamp: " + e.what());
       continue;
     }
+    Observation observation;
+    observation.source = source;
+    observation.origin = sensor_to_robot.translation().cast<float>();
+    observation.begin = points_.size();
     if (scan != nullptr)
-      appendScanPoints(ScanView{ scan->ranges.data(), scan->ranges.size(), scan->angle_min, scan->angle_increment,
-                                 scan->range_min, scan->range_max },
-                       sensor_to_robot, points_);
+    {
+      const ScanView view{ scan->ranges.data(),   scan->ranges.size(), scan->angle_min,
+                           scan->angle_increment, scan->range_min,     scan->range_max };
+      appendScanPoints(view, sensor_to_robot, points_);
+      appendScanNoReturns(view, sensor_to_robot, navigator_parameters_.planner_clearing_range, observation.free_ends);
+    }
     else
     {
       appendCloudPoints(cloud->view, sensor_to_robot, parameters_.height_band_min, parameters_.height_band_max,
                         points_);
     }
+    observation.end = points_.size();
+    observations_.push_back(std::move(observation));
   }
 }
 
@@ -407,7 +418,7 @@ void ReactiveNavigatorRos::runStep(const ros::Time& time, bool latest_pose)
   if (poseAt(time, latest_pose, pose))
   {
     collectObstacles(time, !latest_pose);
-    command = core_->step(time.toSec(), pose, points_);
+    command = core_->step(time.toSec(), pose, points_, observations_);
   }
   else
     warn("pose", "no pose: no transform '" + parameters_.odom_frame + "' -> '" + parameters_.robot_frame + "' at " +

@@ -5,7 +5,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <type_traits>
 #include <vector>
 
@@ -360,6 +362,102 @@ TEST(NavigatorCore, ALongerPathRoundAWallThatClosedTheWayIsNotBlocked)
   EXPECT_GT(north, 3.0);  // round the wall's end
 }
 
+// One step of a robot standing at the origin: the points of each source in turn, from its origin.
+void stepSources(NavigatorCore& core, double time,
+                 const std::vector<std::pair<Eigen::Vector3f, ObstaclePoints>>& sources)
+{
+  ObstaclePoints points;
+  std::vector<Observation> observations;
+  for (std::size_t i = 0; i < sources.size(); ++i)
+  {
+    Observation o;
+    o.source = i;
+    o.origin = sources[i].first;
+    o.begin = points.size();
+    points.insert(points.end(), sources[i].second.begin(), sources[i].second.end());
+    o.end = points.size();
+    observations.push_back(o);
+  }
+  core.step(time, Pose2{}, points, observations);
+}
+
+TEST(NavigatorCore, APersonWhoWalkedThroughTheCorridorLeavesNoObstacleOnceTheCorridorIsSeenEmpty)
+{
+  NavigatorParameters p;
+  ObstaclePoints walls, person = walls;
+  addWallAlongY(walls, 5.05, -0.95, 0.95);   // the corridor's end, 20 cells
+  addWallAlongY(person, 2.05, -0.15, 0.15);  // a person crossing it, 4 cells
+  person.insert(person.end(), walls.begin(), walls.end());
+  const Eigen::Vector3f lidar(0.3f, 0.0f, 0.2f);
+  NavigatorCore clearing(p);
+  stepSources(clearing, 1.0, { { lidar, person } });
+  EXPECT_EQ(clearing.plannerCells(), 24u);
+  stepSources(clearing, 1.1, { { lidar, walls } });
+  EXPECT_EQ(clearing.plannerCells(), 20u);  // the lidar's beams went through where the person stood
+  // Without the sensors' origins (no observations) the cells only expire (planner_memory).
+  NavigatorCore expiring(p);
+  expiring.step(1.0, Pose2{}, person);
+  expiring.step(1.1, Pose2{}, walls);
+  EXPECT_EQ(expiring.plannerCells(), 24u);
+}
+
+TEST(NavigatorCore, ATableTopOnlyTheCamerasSawIsNotClearedByALidarBeamUnderIt)
+{
+  NavigatorParameters p;
+  p.mode = "3d";
+  ObstaclePoints top, wall;
+  addWallAlongY(top, 2.05, -0.45, 0.45, 0.72);  // the top's edge at the arm's height, 10 cells
+  addWallAlongY(wall, 4.05, -1.45, 1.45, 0.2);  // what the lidar sees under it, 30 cells
+  const Eigen::Vector3f lidar(0.3f, 0.0f, 0.2f), camera(0.3f, 0.0f, 1.0f);
+  NavigatorCore core(p);
+  stepSources(core, 1.0, { { lidar, wall }, { camera, top } });
+  EXPECT_EQ(core.plannerCells(), 40u);
+  // The top out of the camera's view (the robot under its edge): the lidar's beams under it leave it.
+  for (double t = 1.1; t < 3.0; t += 0.1)
+    stepSources(core, t, { { lidar, wall }, { camera, {} } });
+  EXPECT_EQ(core.plannerCells(), 40u);
+  // Seen by one sensor, the same beams would have cleared it: each source clears its own cells.
+  NavigatorCore one_source(p);
+  stepSources(one_source, 1.0, { { lidar, top } });
+  stepSources(one_source, 1.1, { { lidar, wall } });
+  EXPECT_EQ(one_source.plannerCells(), 30u);
+}
+
+TEST(NavigatorCore, TheUnifiedScansBeamsStopAtATableTopAndKeepIt)
+{
+  // The unified scan holds the top's edge: its beams end there, so they never clear it, and the
+  // planner's path goes round it (the goal 4 m ahead, behind the top's middle).
+  NavigatorParameters p;
+  ObstaclePoints scan;
+  addWallAlongY(scan, 2.05, -0.95, 0.95, 0.0);
+  const Eigen::Vector3f origin(0.0f, 0.0f, 0.0f);
+  NavigatorCore core(p);
+  core.setGoal(4.0, 0.0);
+  for (double t = 1.0; t < 3.0; t += 0.1)
+    stepSources(core, t, { { origin, scan } });
+  EXPECT_EQ(core.plannerCells(), 20u);
+  double widest = 0.0;
+  for (const auto& point : core.plannedPath())
+    widest = std::max(widest, std::abs(point.y()));
+  EXPECT_GT(widest, 0.95 + 0.44);  // round the top's end with the robot's circle
+}
+
+TEST(NavigatorCore, ObservationsMustSplitThePointsInOrder)
+{
+  NavigatorCore core(NavigatorParameters{});
+  const ObstaclePoints points(3, Eigen::Vector3f(2.0f, 0.0f, 0.2f));
+  Observation a, b;
+  a.end = 2;
+  b.begin = 2;
+  b.end = 3;
+  EXPECT_NO_THROW(core.step(1.0, Pose2{}, points, { a, b }));
+  b.begin = 1;  // overlaps a
+  EXPECT_THROW(core.step(1.1, Pose2{}, points, { a, b }), std::invalid_argument);
+  b.begin = 2;
+  b.end = 2;  // leaves the last point out
+  EXPECT_THROW(core.step(1.2, Pose2{}, points, { a, b }), std::invalid_argument);
+}
+
 // validate() throws ParameterError naming `name`.
 template <class Parameters>
 void expectError(const Parameters& p, const std::string& name)
@@ -406,7 +504,7 @@ TEST(Parameters, ALimitIsTheTableLinesInItsWords)
   }
   const std::vector<std::string> names = laserscan_common::fieldNames(NodeParameters{});
   EXPECT_EQ(names.front(), "scan_topics");
-  EXPECT_EQ(laserscan_common::fieldNames(NavigatorParameters{}).size(), 18u);
+  EXPECT_EQ(laserscan_common::fieldNames(NavigatorParameters{}).size(), 19u);
 }
 
 TEST(Parameters, EachBadValueNamesItsParameter)
@@ -460,6 +558,7 @@ TEST(Parameters, EachBadValueNamesItsParameter)
          { &NavigatorParameters::planner_rate, "planner_rate" },
          { &NavigatorParameters::planner_resolution, "planner_resolution" },
          { &NavigatorParameters::planner_memory, "planner_memory" },
+         { &NavigatorParameters::planner_clearing_range, "planner_clearing_range" },
          { &NavigatorParameters::planner_inflation, "planner_inflation" },
          { &NavigatorParameters::planner_clearance, "planner_clearance" },
          { &NavigatorParameters::planner_margin, "planner_margin" },
@@ -512,6 +611,11 @@ TEST(ObstaclePoints, ScanBeamsFollowRep117)
   EXPECT_NEAR(out[0].z(), 0.2f, 1e-6);
   EXPECT_NEAR(out[1].x(), 0.3f, 1e-6);         // beam 2 at pi rad: -Inf -> range_min
   EXPECT_NEAR(out[2].x(), 0.4f - 2.0f, 1e-5);  // beam 6 at 3 pi rad, 2 m
+  // The one +Inf beam (1, at pi / 2) saw free space: the end of its clearing ray, 5 m along it.
+  ObstaclePoints free_ends;
+  ASSERT_EQ(appendScanNoReturns(scan, mount, 5.0, free_ends), 1u);
+  EXPECT_NEAR(free_ends[0].x(), 0.4f, 1e-5);
+  EXPECT_NEAR(free_ends[0].y(), 5.0f, 1e-5);
 }
 
 // A PointCloud2's layout and bytes: `rows` of points with x, y, z of type T at 0, sizeof(T) and

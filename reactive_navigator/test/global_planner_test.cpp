@@ -1,5 +1,6 @@
 // The global planner against analytic cases: paths round obstacles, through passages the robot's
-// circle fits, cells forgotten after their memory, the carrot along the path.
+// circle fits, cells forgotten after their memory, cleared by the rays of the sensor that marked
+// them, the carrot along the path.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -125,6 +126,68 @@ TEST(GlobalPlanner, AWallAcrossTheWholeWindowIsCrossedNotAFailure)
   markSegment(planner, { 2.0, -10.0 }, { 2.0, 10.0 });
   ASSERT_TRUE(planner.plan(1.0, { 0.0, 0.05 }, { 4.0, 0.05 }));
   EXPECT_NEAR(length(planner.path()), 4.0, 1e-6);  // straight across, where it is thinnest
+}
+
+// Points every 2 cm along the segment a-b.
+std::vector<Eigen::Vector2d> pointsAlong(Eigen::Vector2d a, Eigen::Vector2d b)
+{
+  std::vector<Eigen::Vector2d> points;
+  const int n = static_cast<int>(std::ceil((b - a).norm() / 0.02));
+  for (int i = 0; i <= n; ++i)
+    points.push_back(a + (b - a) * (static_cast<double>(i) / std::max(n, 1)));
+  return points;
+}
+
+TEST(GlobalPlanner, ASensorsRaysClearWhatItMarkedBeforeAndItsPointsMarkAgain)
+{
+  GlobalPlanner planner{ PlannerSettings{} };
+  const Eigen::Vector2d origin(0.0, 0.0);
+  // A person 2 m ahead (4 cells across), a wall at 4 m behind them (20 cells); points off the
+  // cells' edges.
+  const auto person = pointsAlong({ 2.05, -0.15 }, { 2.05, 0.15 });
+  const auto wall = pointsAlong({ 4.05, -0.95 }, { 4.05, 0.95 });
+  std::vector<Eigen::Vector2d> seen = person;
+  seen.insert(seen.end(), wall.begin(), wall.end());
+  planner.observe(0, origin, seen, {}, 0.0);
+  const std::size_t with_person = planner.occupiedCells();
+  EXPECT_EQ(with_person, 4u + 20u);
+  // The person walked on: the beams reach the wall through where they stood.
+  planner.observe(0, origin, wall, {}, 0.1);
+  EXPECT_EQ(planner.occupiedCells(), 20u);
+  // A beam with no return clears its whole length: the wall's cell on it goes, the others stay.
+  planner.observe(0, origin, {}, { { 5.05, 0.05 } }, 0.2);
+  EXPECT_EQ(planner.occupiedCells(), 19u);
+}
+
+TEST(GlobalPlanner, ASourceClearsOnlyTheCellsItMarked)
+{
+  GlobalPlanner planner{ PlannerSettings{} };
+  // Source 1 (a camera) marked a table top's edge 2 m ahead; source 0 (a lidar) sees under it.
+  planner.observe(1, { 0.0, 0.0 }, pointsAlong({ 2.05, -0.45 }, { 2.05, 0.45 }), {}, 0.0);
+  ASSERT_EQ(planner.occupiedCells(), 10u);
+  planner.observe(0, { 0.0, 0.0 }, pointsAlong({ 4.05, -0.45 }, { 4.05, 0.45 }), {}, 0.1);
+  EXPECT_EQ(planner.occupiedCells(), 20u);  // the top's cells stay
+  // The camera's own rays through them (to a wall twice as wide, twice as far) clear them.
+  planner.observe(1, { 0.0, 0.0 }, pointsAlong({ 4.05, -0.95 }, { 4.05, 0.95 }), {}, 0.2);
+  EXPECT_EQ(planner.occupiedCells(), 20u);  // the wall's cells only
+  EXPECT_EQ(planner.plan(0.3, { 0.05, 0.05 }, { 3.05, 0.05 }), true);
+  EXPECT_NEAR(length(planner.path()), 3.0, 1e-9);  // straight through where the top was
+}
+
+TEST(GlobalPlanner, RaysClearUpToTheClearingRangeOnly)
+{
+  PlannerSettings settings;
+  settings.clearing_range = 3.0;
+  GlobalPlanner planner{ settings };
+  planner.mark(2.55, 0.05, 0.0);
+  planner.mark(3.55, 0.05, 0.0);
+  planner.observe(0, { 0.05, 0.05 }, { { 8.05, 0.05 } }, {}, 0.1);  // a point 8 m away
+  EXPECT_EQ(planner.occupiedCells(), 2u);                           // 3.55 beyond the range stays; 8.05 marked
+  settings.clearing_range = 0.0;                                    // no clearing at all
+  GlobalPlanner expiring{ settings };
+  expiring.mark(2.55, 0.05, 0.0);
+  expiring.observe(0, { 0.05, 0.05 }, {}, { { 4.05, 0.05 } }, 0.1);
+  EXPECT_EQ(expiring.occupiedCells(), 1u);
 }
 
 TEST(GlobalPlanner, TheCarrotLiesAlongThePathAhead)

@@ -42,6 +42,17 @@ const char* stateName(NavigationState state);
 /// Obstacle points in the robot frame (m). In 2d mode z is ignored (the caller keeps the height band).
 using ObstaclePoints = std::vector<Eigen::Vector3f>;
 
+/// Which of a step's obstacle points one sensor saw, and from where: the planner's grid clears
+/// along its rays before marking its points (global_planner.hpp). Robot frame (m).
+struct Observation
+{
+  std::size_t source = 0;             ///< the sensor (0 - 63): it clears only the cells it marked
+  Eigen::Vector3f origin{ 0, 0, 0 };  ///< where its rays start
+  std::size_t begin = 0;              ///< its points: obstacles[begin, end)
+  std::size_t end = 0;
+  ObstaclePoints free_ends;  ///< ends of its rays that saw nothing (a scan's +Inf beams)
+};
+
 class NavigatorCore
 {
 public:
@@ -62,8 +73,12 @@ public:
   /// With obstacle_memory > 0, the points of earlier steps (kept in the odometry frame, one per
   /// 5 cm cell, the newest; forgotten obstacle_memory s after their cell was last seen or when
   /// farther than lookahead) are handed to MRPT beside the step's own, seen from the pose now.
+  /// `observations` split `obstacles` by sensor, in order (their ranges follow one another from 0
+  /// to obstacles.size(); std::invalid_argument otherwise); without them the points mark the
+  /// planner's grid and clear nothing.
   /// Returns the command to drive until the next step (zero unless navigating).
-  Command step(double time, const Pose2& pose, const ObstaclePoints& obstacles);
+  Command step(double time, const Pose2& pose, const ObstaclePoints& obstacles,
+               const std::vector<Observation>& observations = {});
 
   NavigationState state() const;
   /// Obstacle points of the last step: handed to MRPT, and dropped as the robot's own body.

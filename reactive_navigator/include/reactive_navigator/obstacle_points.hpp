@@ -32,6 +32,12 @@ struct ScanView
 /// the unified scan's projection, already chose what is an obstacle). Returns the points added.
 std::size_t appendScanPoints(const ScanView& scan, const Eigen::Isometry3d& sensor_to_robot, ObstaclePoints& out);
 
+/// Appends, for each beam with no return (+Inf, REP 117), the point `distance` m along it, in the
+/// robot frame: the end of a ray that saw free space (the planner's grid clears along it).
+/// Returns the points added.
+std::size_t appendScanNoReturns(const ScanView& scan, const Eigen::Isometry3d& sensor_to_robot, double distance,
+                                ObstaclePoints& out);
+
 /// Appends the cloud's finite points whose height in the robot frame is within
 /// [band_min, band_max] (as a costmap's obstacle layer keeps its band). The cloud is read through
 /// laserscan_common's view (laserscan_common::makeCloudView checked it): rows row_step bytes

@@ -69,9 +69,12 @@ struct NavigatorParameters
   double planner_rate = 2.0;         ///< Hz of the caller's clock: replans per second
   double planner_resolution = 0.10;  ///< m, grid cell
   double planner_memory = 20.0;      ///< s: a cell is an obstacle this long after its last point
-  double planner_inflation = 0.05;   ///< m beyond the robot's circle: as costly as an obstacle
-  double planner_clearance = 0.20;   ///< m beyond that over which the extra cost falls to none
-  double planner_margin = 3.0;       ///< m around the robot and the goal that the search covers
+  /// m: each sensor's rays clear the cells it marked up to this far (costmap_2d's raytrace_range);
+  /// 0 = cells only expire
+  double planner_clearing_range = 5.0;
+  double planner_inflation = 0.05;  ///< m beyond the robot's circle: as costly as an obstacle
+  double planner_clearance = 0.20;  ///< m beyond that over which the extra cost falls to none
+  double planner_margin = 3.0;      ///< m around the robot and the goal that the search covers
   /// m along the path: MRPT's target (the goal once less is left). Not much less than lookahead:
   /// MRPT's holonomic method shuns a target close in front of an obstacle (at 1.5 m before a
   /// 1.3 m gap its commands reversed every half second and it ended blocked; at 3 m it passes).
@@ -121,9 +124,16 @@ void visitFields(P& p, V&& visit)
   visit(p.planner_rate, ParamInfo("planner_rate", "Hz", "replans per second of ROS time").above(0.0).finiteOnly());
   visit(p.planner_resolution,
         ParamInfo("planner_resolution", "m", "the planner's grid cell (at most 1 m)").above(0.0).atMost(1.0));
-  visit(
-    p.planner_memory,
-    ParamInfo("planner_memory", "s", "a cell is an obstacle this long after its last point").above(0.0).finiteOnly());
+  visit(p.planner_memory,
+        ParamInfo("planner_memory", "s", "a cell is an obstacle this long after its last point (or until cleared)")
+          .above(0.0)
+          .finiteOnly());
+  visit(p.planner_clearing_range,
+        ParamInfo("planner_clearing_range", "m",
+                  "each sensor's rays (to its points, and its beams with no return) clear the cells it marked "
+                  "up to this far from it, before its points mark theirs; 0 = cells only expire")
+          .atLeast(0.0)
+          .finiteOnly());
   visit(p.planner_inflation, ParamInfo("planner_inflation", "m",
                                        "beyond the robot's circle: cells this close to an obstacle cost as much as one")
                                .atLeast(0.0)

@@ -92,8 +92,9 @@ private:
   geometry_msgs::PoseStamped::ConstPtr pending_goal_;  // waiting for its transform
   ros::WallTime pending_since_;
   ObstaclePoints points_;
-  long next_step_ = -1;          // lockstep: grid index of the next step (time = index / rate)
-  ros::WallTime waiting_since_;  // lockstep: when the pending step started waiting
+  std::vector<Observation> observations_;  // points_ by source, with each sensor's origin
+  long next_step_ = -1;                    // lockstep: grid index of the next step (time = index / rate)
+  ros::WallTime waiting_since_;            // lockstep: when the pending step started waiting
   NavigationState published_state_ = NavigationState::Idle;
   bool state_published_ = false;
   // Diagnostics since the last report.

@@ -8,7 +8,9 @@ for ~step stamped t. Checks: a goal in gives cmd_vel towards it (and ~step carri
 command) and ~plan the planner's path to it, a wall in the scan stops the forward motion, and the
 cloud's points go through tf (only those the camera sees inside the height band count as
 obstacles, /diagnostics says how many), read right from a float64 cloud with padded rows; a
-malformed cloud is dropped with a warning naming its defect, and the node runs on."""
+malformed cloud is dropped with a warning naming its defect, and the node runs on; a wall the
+lidar saw and then sees gone (its beams return nothing) leaves the planner's grid (the scan's
+origin comes through tf: its rays clear), while the camera's cells stay."""
 import math
 import threading
 import time
@@ -65,11 +67,13 @@ def camera_cloud(stamp, in_band=IN_BAND, dtype=np.float32, rows=1, row_padding=0
     return m
 
 
-def lidar_scan(stamp, wall_x=None):
+def lidar_scan(stamp, wall_x=None, wall_half_width=None):
     a = -math.pi + 2 * math.pi / BEAMS * np.arange(BEAMS)
     ranges = np.full(BEAMS, np.inf, dtype=np.float32)
     if wall_x is not None:
         ahead = np.cos(a) > 0.1
+        if wall_half_width is not None:
+            ahead &= np.abs(np.tan(a)) * wall_x <= wall_half_width
         ranges[ahead] = (wall_x / np.cos(a[ahead])).astype(np.float32)
         ranges[ranges > 30.0] = np.inf
     m = LaserScan()
@@ -131,7 +135,7 @@ class NavigatorTest(unittest.TestCase):
         m.clock = rospy.Time.from_sec(t)
         cls.clock.publish(m)
 
-    def step(self, wall_x=None, clouds=(camera_cloud,)):
+    def step(self, wall_x=None, clouds=(camera_cloud,), wall_half_width=None):
         """One lockstep step at the next grid time; returns the navigator's command for it. The
         camera publishes each of `clouds` (functions of the stamp) in turn."""
         cls = type(self)
@@ -139,7 +143,7 @@ class NavigatorTest(unittest.TestCase):
         stamp = rospy.Time.from_sec(cls.t)
         cls.publish_clock(cls.t)
         cls.tf.publish(TFMessage([transform('odom', 'base_link', stamp, 0.0, 0.0, 0.0)]))
-        cls.scan.publish(lidar_scan(stamp, wall_x))
+        cls.scan.publish(lidar_scan(stamp, wall_x, wall_half_width))
         for cloud in clouds:
             cls.cloud.publish(cloud(stamp))
         k = round(cls.t / STEP)
@@ -230,6 +234,37 @@ class NavigatorTest(unittest.TestCase):
         self.wait_for(warned, 'the warning about the malformed cloud')
         self.step()
         self.obstacle_points_reported(IN_BAND, clouds=(overlapping_rows, camera_cloud))
+
+    def planner_cells(self, **scene):
+        """Steps with `scene` (step()'s arguments) until a diagnostics report made after the first
+        of them arrives; returns its planner obstacle cells."""
+        for _ in range(3):
+            self.step(**scene)
+        with self.cond:
+            del self.diagnostics[:]
+
+        def cells():
+            for array in self.diagnostics:
+                for status in array.status:
+                    values = {v.key: v.value for v in status.values}
+                    if 'planner obstacle cells' in values:
+                        return int(values['planner obstacle cells'])
+            return None
+        deadline = time.monotonic() + 20.0  # the report comes every wall second
+        while time.monotonic() < deadline:
+            self.step(**scene)
+            with self.cond:
+                if cells() is not None:
+                    return cells()
+        self.fail('no diagnostics report of the planner obstacle cells')
+
+    def test_f_a_wall_seen_gone_leaves_the_planners_grid_and_the_cameras_cells_stay(self):
+        camera_only = self.planner_cells()
+        self.assertGreater(camera_only, 0)  # the cloud's points in the band
+        with_wall = self.planner_cells(wall_x=2.0, wall_half_width=1.0)
+        self.assertGreaterEqual(with_wall, camera_only + 15)  # 2 m of wall in 0.1 m cells
+        # The lidar's beams now return nothing (+Inf): they clear its wall, not the camera's cells.
+        self.assertEqual(self.planner_cells(), camera_only)
 
 
 if __name__ == '__main__':

@@ -169,7 +169,8 @@ def run_one(mode, points, route, workdir, seed=0, timeout_s=60.0):
            "system_cpu_percent": sum(v["cpu_seconds"] for v in figures.values()) * per_simulated_s,
            "navigator_memory_mb": nav[0].get("peak_rss_mb", nav[0]["rss_mb"]),
            "simulated_s": record["simulated_s"], "lockstep_timeouts": record.get("lockstep_timeouts", 0),
-           "collided_with": record.get("collided_with", []), "wall_s": record.get("wall_s"),
+           "collided_with": record.get("collided_with", []), "people_waited_s": record.get("people_waited_s", {}),
+           "wall_s": record.get("wall_s"),
            "process_cpu_percent": {k: v["cpu_seconds"] * per_simulated_s for k, v in figures.items()}}
     return row, record
 
@@ -239,11 +240,13 @@ def targets(runs):
 
 
 #: The targets --check (scripts/demo) requires of the runs (names, or their start before the route):
-#: the unified navigator reaches the goal without touching a 3D obstacle, for less CPU than raw 3D,
-#: and the lidar-only one touches what it cannot see. The issue's stricter targets (no collision at
-#: all: the crosser walks into the robot in every mode; time within 5 % of raw 3D's: 1.05 at 50k)
-#: are reported met or MISSED without failing the demo (docs/navigation.md).
-CHECKED = ("unified_reached_goal", "unified_no_3d_contact", "navigator_cpu_below_raw",
+#: the unified navigator reaches the goal without any contact (people included), within 5 % of raw
+#: 3D's time and touching no 3D obstacle, for less CPU than raw 3D, and the lidar-only one touches
+#: what it cannot see. What the quick run shows since the planner's grid is cleared by rays and the
+#: people give way (docs/navigation.md; the table route at 50k: no contact, 0.96 of raw 3D's time).
+#: The CPU ratios (flat, 10x at 300k) need the whole sweep and are reported only.
+CHECKED = ("unified_reached_goal", "unified_reached_without_collision", "unified_no_3d_contact",
+           "unified_time_within_5_percent_of_raw_3d", "navigator_cpu_below_raw",
            "system_cpu_below_raw_from_50k", "lidar_only_misses_3d_obstacle")
 
 
@@ -331,10 +334,10 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0, help="the simulator's seed (default 0)")
     ap.add_argument("--timeout", type=float, default=60.0, help="simulated s after the goal (default 60)")
     ap.add_argument("--check", action="store_true",
-                    help="exit 1 unless the unified runs reach the goal touching no 3D obstacle, the "
-                         "navigator's and the whole system's CPU on the unified scan are below raw 3D's "
-                         "and the lidar-only runs touch a 3D obstacle (scripts/demo's threshold); the "
-                         "other targets are reported met or MISSED")
+                    help="exit 1 unless the unified runs reach the goal without any contact, within 5 %% "
+                         "of raw 3D's time, the navigator's and the whole system's CPU on the unified "
+                         "scan are below raw 3D's and the lidar-only runs touch a 3D obstacle "
+                         "(scripts/demo's threshold); the CPU ratios are reported met or MISSED")
     a = ap.parse_args(argv)
     points = a.points or (QUICK_POINTS if a.quick else POINTS)
     routes = a.routes or (("table",) if a.quick else ROUTES)

@@ -109,7 +109,8 @@ class RunRecord:
 
     Times are simulated seconds.  trajectory: [t, x, y, yaw] at every control step (t relative
     to the start, map frame).  collided_with: one entry per contact onset {name, kind, t,
-    robot_speed}, kind "3d" (no lidar plane cuts the obstacle), "glass" or "2d"."""
+    robot_speed}, kind "3d" (no lidar plane cuts the obstacle), "glass" or "2d".  people_waited_s:
+    per person who gave way to the robot, the simulated seconds they stood."""
     route: str
     seed: int
     points_per_camera: int
@@ -126,6 +127,7 @@ class RunRecord:
     lockstep_timeouts: int = 0           # control steps the navigator did not answer in time
     wall_s: float = 0.0
     collided_with: List[dict] = field(default_factory=list)
+    people_waited_s: dict = field(default_factory=dict)
     trajectory: List[Tuple[float, float, float, float]] = field(default_factory=list)
 
     def to_json(self):
@@ -224,6 +226,34 @@ def rect_circle_distance(c, h, yaw, centre, radius):
     lx = np.abs(cs * rel[..., 0] + sn * rel[..., 1]) - h[..., 0]
     ly = np.abs(-sn * rel[..., 0] + cs * rel[..., 1]) - h[..., 1]
     return np.maximum(np.hypot(np.maximum(lx, 0.0), np.maximum(ly, 0.0)) - radius, 0.0)
+
+
+#: People give way to the robot (closed loop): a person stops while walking on would bring them
+#: closer than YIELD_CLEARANCE m to the robot's shape within the next YIELD_AHEAD m, and walks on
+#: once it would not (the people of the paper's experiment are people: they do not walk into a
+#: robot, as the pedestrian models of social-navigation simulators do not): half a second's walk
+#: ahead, so a person stops 0.3 - 0.8 m from the robot.
+YIELD_AHEAD = 0.5
+YIELD_CLEARANCE = 0.3
+_YIELD_SAMPLES = np.linspace(0.05, YIELD_AHEAD, 10)  # every 5 cm of the way ahead
+
+
+def people_giving_way(world, parts, rel):
+    """Whether each person must wait at ``rel`` for the robot's parts (map; as
+    ``ClosedLoopSim.parts``): a sample of their next YIELD_AHEAD m of walking comes closer than
+    YIELD_CLEARANCE to the robot, and closer than they are now (a person walking away from the
+    robot, or past it, walks on).  (P,) bool."""
+    if not world.people:
+        return np.zeros(0, bool)
+    pc, ph, pyaw = parts
+    now = world.people_ahead(rel, [0.0])          # (1, P, 2)
+    ahead = world.people_ahead(rel, _YIELD_SAMPLES)  # (D, P, 2)
+
+    def gap(points):  # (n, P): distance of each person's disc from the closest robot part
+        return rect_circle_distance(pc[:, None, None, :2], ph[:, None, None, :2], pyaw[:, None, None],
+                                    points[None], world.person_r[None, None, :]).min(axis=0)
+    closest = gap(ahead).min(axis=0)
+    return (closest < YIELD_CLEARANCE) & (closest < gap(now)[0])
 
 
 class CollisionMonitor:
@@ -440,7 +470,14 @@ class ClosedLoopSim:
         self.odom_twist = self.odometry.step(fwd, dth, dt, self.rng, lateral=lat)
         self.k += 1
         rec, rel = self.run_record, self.rel
-        clearance = self.monitor.check(self.parts(), rel, math.hypot(self.base.vx, self.base.vy))
+        parts = self.parts()
+        # The people decide at the step whether to give way; the robot moved first (the contacts
+        # are judged after both).
+        self.world.hold(rel, people_giving_way(self.world, parts, rel))
+        for person, waiting in zip(self.world.people, self.world.waiting()):
+            if waiting:
+                rec.people_waited_s[person.name] = rec.people_waited_s.get(person.name, 0.0) + dt
+        clearance = self.monitor.check(parts, rel, math.hypot(self.base.vx, self.base.vy))
         if self.k > self.goal_step:  # path and clearance count from the goal on
             rec.path_length_m += math.hypot(self.base.x - x0, self.base.y - y0)
             rec.min_clearance_m = min(rec.min_clearance_m, clearance)

@@ -146,6 +146,10 @@ class World:
         self._rect_reach = np.hypot(self._rect_h[:, 0], self._rect_h[:, 1])  # bounding circles
         self.person_r = np.array([p.radius for p in self.people], float)
         self.person_h = np.array([p.height for p in self.people], float)
+        # Closed loop only (``hold``): arc length each person lost waiting before the current
+        # wait, and when the current wait began (NaN: walking). Zero and NaN: the open loop's people.
+        self._held = np.zeros(len(self.people))
+        self._hold_since = np.full(len(self.people), math.nan)
         self._paths = []
         for p in self.people:
             pts = np.array(p.path, float)
@@ -153,17 +157,57 @@ class World:
             self._paths.append((pts, np.concatenate([[0.0], np.cumsum(seg)])))
 
     # ----- people ----------------------------------------------------------------------
+    def _arc(self, times):
+        """Arc length (len(times), P) each person has walked by scenario-relative times: phase +
+        speed * t, less what waiting (``hold``) took; unfolded (the ping-pong is ``_at_arc``'s)."""
+        times = np.atleast_1d(np.asarray(times, float))
+        out = np.zeros((len(times), len(self.people)))
+        for j, p in enumerate(self.people):
+            arc = p.phase + p.speed * times
+            since = self._hold_since[j]
+            if not math.isnan(since):
+                arc = arc - (self._held[j] + p.speed * np.maximum(times - since, 0.0))
+            elif self._held[j]:
+                arc = arc - self._held[j]
+            out[:, j] = arc
+        return out
+
+    def _at_arc(self, arcs):
+        """Positions (..., P, 2) at unfolded arc lengths (..., P), walked there and back."""
+        out = np.zeros(arcs.shape + (2,))
+        for j, (pts, cum) in enumerate(self._paths):
+            length = cum[-1]
+            s = np.mod(arcs[..., j], 2.0 * length)
+            s = np.where(s > length, 2.0 * length - s, s)  # walk back along the path
+            out[..., j, 0] = np.interp(s, cum, pts[:, 0])
+            out[..., j, 1] = np.interp(s, cum, pts[:, 1])
+        return out
+
     def people_xy(self, times):
         """Positions of the people at scenario-relative times: (len(times), P, 2)."""
-        times = np.atleast_1d(np.asarray(times, float))
-        out = np.zeros((len(times), len(self.people), 2))
-        for j, (p, (pts, cum)) in enumerate(zip(self.people, self._paths)):
-            length = cum[-1]
-            s = np.mod(p.phase + p.speed * times, 2.0 * length)
-            s = np.where(s > length, 2.0 * length - s, s)  # walk back along the path
-            out[:, j, 0] = np.interp(s, cum, pts[:, 0])
-            out[:, j, 1] = np.interp(s, cum, pts[:, 1])
-        return out
+        return self._at_arc(self._arc(times))
+
+    def people_ahead(self, rel_time, distances):
+        """Where each person will be after walking ``distances`` (D,) m more from where they are
+        at ``rel_time``: (D, P, 2)."""
+        arc = self._arc([rel_time])[0]
+        return self._at_arc(arc[None, :] + np.asarray(distances, float)[:, None])
+
+    def hold(self, rel_time, waiting):
+        """Closed loop: from ``rel_time`` on, person j stands where they are while waiting[j], and
+        walks on from there once it is false (a pedestrian giving way).  Times before the last
+        change are not kept apart: ask for positions from ``rel_time`` on."""
+        for j, (p, wait) in enumerate(zip(self.people, waiting)):
+            since = self._hold_since[j]
+            if wait and math.isnan(since):
+                self._hold_since[j] = rel_time
+            elif not wait and not math.isnan(since):
+                self._held[j] += p.speed * max(rel_time - since, 0.0)
+                self._hold_since[j] = math.nan
+
+    def waiting(self):
+        """Whether each person is standing, giving way (``hold``)."""
+        return ~np.isnan(self._hold_since)
 
     def solids(self, rel_time, static_only=False):
         """Arrays of all solids (boxes, static cylinders, people at ``rel_time``)."""
