@@ -14,27 +14,6 @@
 namespace multi_laserscan_merger
 {
 
-namespace
-{
-ScanView viewOf(const sensor_msgs::LaserScan& m)
-{
-  ScanView v;
-  v.stamp = m.header.stamp.toSec();
-  v.angle_min = m.angle_min;
-  v.angle_max = m.angle_max;
-  v.angle_increment = m.angle_increment;
-  v.time_increment = m.time_increment;
-  v.range_min = m.range_min;
-  v.range_max = m.range_max;
-  v.ranges = m.ranges.data();
-  v.n_ranges = m.ranges.size();
-  v.intensities = m.intensities.empty() ? nullptr : m.intensities.data();
-  v.n_intensities = m.intensities.size();
-  return v;
-}
-
-}  // namespace
-
 MergerParams loadParams(laserscan_common::ParameterReader& reader)
 {
   MergerParams p;
@@ -284,7 +263,7 @@ void MultiLaserScanMergerRos::handleScan(std::size_t i, const sensor_msgs::Laser
   SourceState& s = sources_[i];
   const SourceParams& sp = params_.sources[i];
   ++s.received;
-  const ScanView view = viewOf(*msg);
+  const ScanView view = laserscan_common::scanViewOf(*msg);
   const ros::Time now = ros::Time::now();
   std::string fault = scanFault(view);
   if (fault.empty() && laserscan_common::tf2FrameId(msg->header.frame_id).empty())
@@ -373,7 +352,7 @@ void MultiLaserScanMergerRos::transformArrived(std::size_t i, const sensor_msgs:
     if (error.empty() && in_time)
     {
       s.pending.reset();
-      accept(i, msg, viewOf(*msg), output_T_sensor, std::move(posed));
+      accept(i, msg, laserscan_common::scanViewOf(*msg), output_T_sensor, std::move(posed));
     }
     else
       dropPending(i, error.empty() ? s.pending_error : error);  // empty: it came after kTransformWait

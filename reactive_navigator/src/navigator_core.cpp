@@ -20,6 +20,8 @@
 #include <mrpt/nav/reactive/CRobot2NavInterface.h>
 #include <mrpt/system/datetime.h>
 
+#include "laserscan_common/scan_geometry.hpp"
+
 namespace reactive_navigator
 {
 
@@ -42,7 +44,7 @@ const char* stateName(NavigationState state)
 namespace
 {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
+constexpr double kRadToDeg = 180.0 / laserscan_common::kPi;
 constexpr double kProgress = 0.1;  // m closer to the goal that counts as progress
 // m: a plan this much longer than the step before's is a new way (round what closed the former):
 // progress is counted along it from where the robot is.

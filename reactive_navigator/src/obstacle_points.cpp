@@ -48,7 +48,7 @@ std::size_t appendScanPoints(const ScanView& scan, const Eigen::Isometry3d& sens
 {
   const std::size_t before = out.size();
   const Eigen::Isometry3f transform = sensor_to_robot.cast<float>();
-  for (std::size_t i = 0; i < scan.count; ++i)
+  for (std::size_t i = 0; i < scan.n_ranges; ++i)
   {
     double range = scan.ranges[i];
     if (std::isnan(range) || range == std::numeric_limits<double>::infinity())
@@ -69,7 +69,7 @@ std::size_t appendScanNoReturns(const ScanView& scan, const Eigen::Isometry3d& s
 {
   const std::size_t before = out.size();
   const Eigen::Isometry3f transform = sensor_to_robot.cast<float>();
-  for (std::size_t i = 0; i < scan.count; ++i)
+  for (std::size_t i = 0; i < scan.n_ranges; ++i)
     if (scan.ranges[i] == std::numeric_limits<float>::infinity())
     {
       const double angle = scan.angle_min + static_cast<double>(i) * scan.angle_increment;

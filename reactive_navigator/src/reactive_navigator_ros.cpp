@@ -211,11 +211,12 @@ void ReactiveNavigatorRos::scanArrived(std::size_t index, const sensor_msgs::Las
   {
     std::lock_guard<std::mutex> lock(mutex_);
     Source& source = sources_[index];
-    if (!std::isfinite(scan->angle_min) || !std::isfinite(scan->angle_increment) || scan->angle_increment == 0.0f ||
-        !std::isfinite(scan->range_min) || !std::isfinite(scan->range_max) || scan->range_min > scan->range_max)
+    // The merger's check (laserscan_common::scanFault): a scan it would drop is not driven on.
+    const std::string fault = laserscan_common::scanFault(laserscan_common::scanViewOf(*scan));
+    if (!fault.empty())
     {
-      warn(source.topic,
-           "scan on '" + source.topic + "' ignored: angles or range limits are not finite or inconsistent");
+      warn("malformed " + source.topic + ": " + laserscan_common::faultKind(fault),
+           "dropped a malformed scan on '" + source.topic + "' (frame '" + scan->header.frame_id + "'): " + fault);
       return;
     }
     source.scans.push_back(scan);
@@ -394,8 +395,7 @@ void ReactiveNavigatorRos::collectObstacles(const ros::Time& time, bool up_to_ti
     observation.begin = points_.size();
     if (scan != nullptr)
     {
-      const ScanView view{ scan->ranges.data(),   scan->ranges.size(), scan->angle_min,
-                           scan->angle_increment, scan->range_min,     scan->range_max };
+      const ScanView view = laserscan_common::scanViewOf(*scan);
       appendScanPoints(view, sensor_to_robot, points_);
       appendScanNoReturns(view, sensor_to_robot, navigator_parameters_.planner_clearing_range, observation.free_ends);
     }

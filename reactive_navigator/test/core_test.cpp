@@ -602,7 +602,13 @@ TEST(ObstaclePoints, ScanBeamsFollowRep117)
 {
   const float inf = std::numeric_limits<float>::infinity();
   const float ranges[] = { 1.0f, inf, -inf, std::nanf(""), 0.05f, 50.0f, 2.0f };
-  ScanView scan{ ranges, 7, 0.0, M_PI / 2.0, 0.1, 10.0 };
+  ScanView scan;
+  scan.ranges = ranges;
+  scan.n_ranges = 7;
+  scan.angle_increment = M_PI / 2.0;
+  scan.angle_max = 6 * scan.angle_increment;
+  scan.range_min = 0.1;
+  scan.range_max = 10.0;
   Eigen::Isometry3d mount = Eigen::Isometry3d::Identity();
   mount.translation() = Eigen::Vector3d(0.4, 0.0, 0.2);
   ObstaclePoints out;

@@ -28,6 +28,26 @@ struct ScanView
   std::size_t n_intensities = 0;
 };
 
+/// The view of a message laid out as sensor_msgs::LaserScan (a template, so that this header needs
+/// no ROS message headers).
+template <class LaserScan>
+ScanView scanViewOf(const LaserScan& m)
+{
+  ScanView v;
+  v.stamp = m.header.stamp.toSec();
+  v.angle_min = m.angle_min;
+  v.angle_max = m.angle_max;
+  v.angle_increment = m.angle_increment;
+  v.time_increment = m.time_increment;
+  v.range_min = m.range_min;
+  v.range_max = m.range_max;
+  v.ranges = m.ranges.data();
+  v.n_ranges = m.ranges.size();
+  v.intensities = m.intensities.empty() ? nullptr : m.intensities.data();
+  v.n_intensities = m.intensities.size();
+  return v;
+}
+
 /// A scan whose beams span more than this (|time_increment| * beams, s) is malformed.
 constexpr double kMaxScanDuration = 60.0;
 

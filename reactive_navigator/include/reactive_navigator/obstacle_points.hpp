@@ -9,21 +9,14 @@
 #include <Eigen/Geometry>
 
 #include "laserscan_common/cloud_view.hpp"
+#include "laserscan_common/scan_view.hpp"
 #include "reactive_navigator/navigator_core.hpp"
 
 namespace reactive_navigator
 {
 
-/// A LaserScan's geometry and ranges (m, rad), as the message carries them.
-struct ScanView
-{
-  const float* ranges = nullptr;
-  std::size_t count = 0;
-  double angle_min = 0.0;
-  double angle_increment = 0.0;
-  double range_min = 0.0;
-  double range_max = 0.0;
-};
+/// A received LaserScan (laserscan_common's view; the node checks it with scanFault first).
+using laserscan_common::ScanView;
 
 /// Appends one point per beam that sees an obstacle, in the robot frame. REP 117: a finite range
 /// within [range_min, range_max] is a point; -Inf (an object closer than range_min) becomes a

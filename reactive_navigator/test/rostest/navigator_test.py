@@ -8,7 +8,7 @@ for ~step stamped t. Checks: a goal in gives cmd_vel towards it (and ~step carri
 command) and ~plan the planner's path to it, a wall in the scan stops the forward motion, and the
 cloud's points go through tf (only those the camera sees inside the height band count as
 obstacles, /diagnostics says how many), read right from a float64 cloud with padded rows; a
-malformed cloud is dropped with a warning naming its defect, and the node runs on; a wall the
+malformed cloud or scan is dropped with a warning naming its defect, and the node runs on; a wall the
 lidar saw and then sees gone (its beams return nothing) leaves the planner's grid (the scan's
 origin comes through tf: its rays clear), while the camera's cells stay."""
 import math
@@ -234,6 +234,21 @@ class NavigatorTest(unittest.TestCase):
         self.wait_for(warned, 'the warning about the malformed cloud')
         self.step()
         self.obstacle_points_reported(IN_BAND, clouds=(overlapping_rows, camera_cloud))
+
+    def test_e_a_malformed_scan_is_dropped_with_its_reason_and_the_node_runs_on(self):
+        # The merger's check (laserscan_common::scanFault): 300 ranges where the angles give 360.
+        bad = lidar_scan(rospy.Time.from_sec(round(type(self).t + STEP, 6)))
+        bad.ranges = bad.ranges[:300]
+        with self.cond:
+            del self.logs[:]
+        type(self).scan.publish(bad)
+        self.step()  # the good scan of the same stamp: the step runs on it
+
+        def warned():
+            return any(m.level == Log.WARN and "dropped a malformed scan on 'scan'" in m.msg and
+                       'ranges length does not match' in m.msg for m in self.logs)
+        self.wait_for(warned, 'the warning about the malformed scan')
+        self.step()
 
     def planner_cells(self, **scene):
         """Steps with `scene` (step()'s arguments) until a diagnostics report made after the first
