@@ -149,3 +149,35 @@ def test_a_session_launch_that_never_gets_ready_is_stopped(fake_session, monkeyp
         with fake_session.launched("pipeline.launch"):
             pytest.fail("the body must not run when the launch never got ready")
     assert _FakeLaunch.made[0].calls[-1] == "stop"
+
+
+def test_a_free_port_lies_below_the_ephemeral_range_that_nodes_bind_to():
+    low = rosrun._ephemeral_low()
+    for _ in range(20):
+        port = rosrun.free_port()
+        assert 1024 <= port < low
+        with __import__("socket").socket() as s:
+            s.bind(("127.0.0.1", port))  # free when handed out
+
+
+def test_a_roscore_whose_port_a_node_took_starts_on_another(monkeypatch, tmp_path):
+    # The first port handed out is held by what a ROS node serves on its port, an XML-RPC API
+    # that answers getPid too (a node took the port between free_port() and roscore's bind): the
+    # master is not taken for ours, and is started again on another port.
+    import threading
+    from xmlrpc.server import SimpleXMLRPCServer
+    node_api = SimpleXMLRPCServer(("127.0.0.1", 0), logRequests=False)
+    node_api.register_function(lambda caller_id: [1, "", os.getpid()], "getPid")
+    threading.Thread(target=node_api.serve_forever, daemon=True).start()
+    taken = node_api.server_address[1]
+    ports = iter([taken])
+    real = rosrun.free_port
+    monkeypatch.setattr(rosrun, "free_port", lambda: next(ports, None) or real())
+    try:
+        with rosrun.Roscore(str(tmp_path), timeout=10.0) as core:
+            assert core.port != taken
+            pid = core.master.getPid()
+            assert pid != os.getpid()
+    finally:
+        node_api.shutdown()
+        node_api.server_close()

@@ -17,6 +17,8 @@ import tempfile
 import threading
 import time
 
+import psutil
+
 from . import cpu_accounting
 
 
@@ -88,8 +90,31 @@ def package_executable(env, package, name):
     return found[0]
 
 
+def _ephemeral_low():
+    try:
+        with open("/proc/sys/net/ipv4/ip_local_port_range") as f:
+            return int(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 32768
+
+
 def free_port():
-    with socket.socket() as s:
+    """A port free on loopback now, below the kernel's ephemeral range: every ROS node binds its
+    XML-RPC and TCPROS servers to port 0 (a port of that range), and one of them took a port that
+    bind(0) had handed out here before the roscore meant for it had bound it (a long navigation
+    sweep's master failed so)."""
+    import random
+    high = _ephemeral_low()
+    low = max(1024, high - 12000)
+    for _ in range(200):
+        port = random.randrange(low, high)
+        with socket.socket() as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+            return port
+    with socket.socket() as s:  # the range is full: let the kernel choose
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
 
@@ -148,6 +173,16 @@ class Roscore:
 
     def __enter__(self):
         os.makedirs(self.workdir, exist_ok=True)
+        # A port can still be taken between free_port() and roscore's bind (roscore then exits or
+        # never answers): another port is tried.
+        for attempt in range(3):
+            try:
+                return self._start()
+            except RunError:
+                if attempt == 2:
+                    raise
+
+    def _start(self):
         self.port = free_port()
         self.uri = "http://127.0.0.1:%d" % self.port
         self.env = dict(os.environ if self.base_env is None else self.base_env,
@@ -164,6 +199,11 @@ class Roscore:
         deadline = time.time() + self.timeout
         while True:
             try:
+                # Only once our roscore's master listens on the port is it asked: whatever else
+                # holds the port may never answer (the call has no timeout), or answer getPid as
+                # any ROS node's API does.
+                if not self._listening():
+                    raise RunError("not listening yet")
                 master.getPid()
                 if self.sim_time is not None:
                     master.setParam("/use_sim_time", self.sim_time)
@@ -175,6 +215,18 @@ class Roscore:
                 time.sleep(0.1)
         self.master = master
         return self
+
+    def _listening(self):
+        """Whether a process of our roscore's tree listens on self.port."""
+        try:
+            root = psutil.Process(self.proc.pid)
+            for p in [root] + root.children(recursive=True):
+                for c in p.connections(kind="tcp"):
+                    if c.status == psutil.CONN_LISTEN and c.laddr and c.laddr.port == self.port:
+                        return True
+        except psutil.Error:
+            pass
+        return False
 
     def __exit__(self, *exc):
         stop_process(self.proc)
