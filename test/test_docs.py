@@ -113,6 +113,10 @@ COMMANDS = {
     "--benchmark_repetitions=5": CHECKED,
     "taskset -c 1 build/devel/lib/depth_filter_scan_converter/depth_filter_scan_converter_benchmark "
     "--benchmark_filter=runArm --benchmark_repetitions=5 --benchmark_enable_random_interleaving=true": CHECKED,
+    # the self filter's instruction counts (valgrind; minutes)
+    "valgrind --tool=callgrind --callgrind-out-file=cg.out build/devel/lib/depth_filter_scan_converter/"
+    "depth_filter_scan_converter_benchmark --benchmark_filter=runArm/WithSelfFilter --benchmark_min_time=0.05": CHECKED,
+    "callgrind_annotate --inclusive=yes --tree=caller cg.out | grep -A1 runArmCloud.*x)": CHECKED,
     "taskset -c 1 build/devel/lib/multi_laserscan_merger/multi_laserscan_merger_benchmark "
     "--benchmark_repetitions=5": CHECKED,
     # --- tests
@@ -170,7 +174,7 @@ COMMANDS = {
 
 # Programs that are not this repository's and need no more than their path arguments checked.
 EXTERNAL = {"source", "cd", "catkin_test_results", "sed", "rbpf-slam", "rosbag", "catkin_lint", "catkin_make",
-            "catkin", "git"}
+            "catkin", "git", "valgrind", "callgrind_annotate", "grep"}
 SHELL_LANGS = {"sh", "bash", "shell", "console"}
 
 
