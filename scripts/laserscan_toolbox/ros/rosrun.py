@@ -16,6 +16,7 @@ import sys
 import tempfile
 import threading
 import time
+from xmlrpc.client import ServerProxy
 
 import psutil
 
@@ -526,25 +527,153 @@ CLOCK_HZ = 200
 
 
 class BagPlayer:
-    """``rosbag play --clock``: the bag on simulated time (/clock at CLOCK_HZ)."""
+    """``rosbag play --clock``: the bag on simulated time (/clock at CLOCK_HZ).
 
-    def __init__(self, bag, log_path, rate=1.0, extra=()):
-        self.cmd = ["rosbag", "play", "--clock", "--hz=%d" % CLOCK_HZ, "-q", "-d", "1", "-r",
+    ``start()`` returns once the player plays: it starts paused and is let go only when each of
+    its topics is connected to every subscriber the master lists for it (or after
+    ``connect_timeout`` s of wall time, with a warning naming the missing connections). rosbag's
+    own ``-d`` (a fixed sleep after advertising) is not enough: a node connects to a new
+    publisher only after the master has told it about one, and on a loaded machine that took
+    more than a second, so the bag's first messages went to no one (the first reading of each
+    sonar and the first camera_info of each camera at a load of 18: the pipeline never received
+    them, and the evaluation counted their frames as dropped)."""
+
+    def __init__(self, bag, log_path, rate=1.0, extra=(), connect_timeout=60.0):
+        self.cmd = ["rosbag", "play", "--clock", "--hz=%d" % CLOCK_HZ, "-q", "--pause", "-r",
                     str(rate)] + list(extra) + [bag]
         self.log_path = log_path
+        self.connect_timeout = connect_timeout
         self.proc = None
+        self.unconnected = {}  # {topic: subscriber nodes} not connected when playback began
 
     def start(self):
         with open(self.log_path, "w") as f:
             self.proc = subprocess.Popen(self.cmd, stdout=f, stderr=subprocess.STDOUT,
                                          stdin=subprocess.DEVNULL, start_new_session=True)
+        try:
+            self._play_when_connected()
+        except BaseException:
+            self.stop()
+            raise
         return self
+
+    def _player_node(self, master, deadline):
+        """(node name, XML-RPC URI, pause service) of this player (rosbag's ``play`` binary, a
+        child of the ``rosbag`` script), once it offers its pause service."""
+        while time.time() < deadline:
+            if self.proc.poll() is not None:
+                raise RunError("rosbag play ended (status %d) before playing:\n%s"
+                               % (self.proc.returncode, log_tail(self.log_path)))
+            try:
+                services = master.getSystemState()[2]
+            except Exception:
+                services = []
+            for service, nodes in services:
+                if not service.endswith("/pause_playback"):
+                    continue
+                for node in nodes:
+                    try:
+                        uri = master.lookupNode(node)
+                        pid = ServerProxy(uri).getPid("/evaluation")[2]
+                        if pid == self.proc.pid or psutil.Process(pid).ppid() == self.proc.pid:
+                            return node, uri, service
+                    except Exception:
+                        continue
+            time.sleep(0.05)
+        raise RunError("rosbag play did not come up within %.0f s:\n%s"
+                       % (self.connect_timeout, log_tail(self.log_path)))
+
+    def _play_when_connected(self):
+        import rosgraph
+        import rospy
+        master = rosgraph.Master("/evaluation_bag_player")
+        deadline = time.time() + self.connect_timeout
+        node, uri, service = self._player_node(master, deadline)
+        api = ServerProxy(uri)
+        missing = {}
+        while time.time() < deadline:
+            missing = unconnected_subscribers(master, api, node)
+            if not missing:
+                break
+            time.sleep(0.05)
+        self.unconnected = missing
+        if missing:
+            sys.stderr.write("rosbag play starts although, after %.0f s, these subscribers are not "
+                             "connected (their first messages may be lost): %s\n"
+                             % (self.connect_timeout, missing))
+        rospy.wait_for_service(service, timeout=max(deadline - time.time(), 5.0))
+        rospy.ServiceProxy(service, _set_bool_service())(False)  # False: do not pause, play
 
     def running(self):
         return self.proc.poll() is None
 
     def stop(self):
         stop_process(self.proc, timeout=5)
+
+
+def _set_bool_service():
+    """std_srvs/SetBool for a rospy client (rosbag's ``pause_playback``): Debian packages its
+    definition (ros-std-srvs), not its Python module, so the two messages are written here."""
+    import struct
+
+    import genpy
+
+    class Request(genpy.Message):
+        _type, _md5sum, _has_header = "std_srvs/SetBoolRequest", "8b94c1b53db61fb6aed406028ad6332a", False
+        _full_text = "bool data"
+        __slots__, _slot_types = ["data"], ["bool"]
+
+        def __init__(self, *args, **kwds):
+            super().__init__(*args, **kwds)
+            self.data = bool(self.data) if self.data is not None else False
+
+        def serialize(self, buff):
+            buff.write(struct.pack("<B", 1 if self.data else 0))
+
+        def deserialize(self, str_):
+            self.data = bool(str_[0])
+            return self
+
+    class Response(genpy.Message):
+        _type, _md5sum, _has_header = "std_srvs/SetBoolResponse", "937c9679a518e3a18d831e57125ea522", False
+        _full_text = "bool success\nstring message"
+        __slots__, _slot_types = ["success", "message"], ["bool", "string"]
+
+        def __init__(self, *args, **kwds):
+            super().__init__(*args, **kwds)
+            self.success = bool(self.success) if self.success is not None else False
+            self.message = self.message or ""
+
+        def serialize(self, buff):
+            text = self.message.encode("utf-8")
+            buff.write(struct.pack("<BI", 1 if self.success else 0, len(text)) + text)
+
+        def deserialize(self, str_):
+            self.success = bool(str_[0])
+            (n,) = struct.unpack("<I", str_[1:5])
+            self.message = bytes(str_[5:5 + n]).decode("utf-8", "replace")
+            return self
+
+    class SetBool:
+        _type, _md5sum = "std_srvs/SetBool", "09fb03525b03e7ea1fd3992bafd87e16"
+        _request_class, _response_class = Request, Response
+
+    return SetBool
+
+
+def unconnected_subscribers(master, api, node):
+    """{topic: [subscriber nodes]}: the subscribers the master lists for a topic that ``node``
+    (whose XML-RPC server is ``api``) publishes and that it has no connection to yet."""
+    state = master.getSystemState()
+    published = {t for t, nodes in state[0] if node in nodes}
+    subscribers = {t: set(nodes) - {node} for t, nodes in state[1] if t in published}
+    connected = {}
+    for link in api.getBusInfo(node)[2]:
+        # [connection id, the other end's node, direction, transport, topic, connected, ...]
+        if len(link) > 5 and link[2] == "o" and link[5]:
+            connected.setdefault(link[4], set()).add(link[1])
+    missing = {t: sorted(subs - connected.get(t, set())) for t, subs in subscribers.items()}
+    return {t: m for t, m in missing.items() if m}
 
 
 class WallClockPlayer:
