@@ -239,6 +239,7 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
                     "static_tf": list(rec.static_tf.values()), "diagnostics": dict(rec.diagnostics),
                     "consumer_cpu_percent": 100.0 * own_cpu / data_s,
                     "wall": wall, "launch": launch.cmd, "player": player.cmd, "clock": "sim",
+                    "player_connect_wait_s": player.connect_wait_s,
                     **extra}
         finally:
             if rec is not None:

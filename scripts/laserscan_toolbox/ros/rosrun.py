@@ -545,6 +545,7 @@ class BagPlayer:
         self.connect_timeout = connect_timeout
         self.proc = None
         self.unconnected = {}  # {topic: subscriber nodes} not connected when playback began
+        self.connect_wait_s = None  # wall time from the player's start to its playing
 
     def start(self):
         with open(self.log_path, "w") as f:
@@ -587,7 +588,8 @@ class BagPlayer:
         import rosgraph
         import rospy
         master = rosgraph.Master("/evaluation_bag_player")
-        deadline = time.time() + self.connect_timeout
+        t0 = time.time()
+        deadline = t0 + self.connect_timeout
         node, uri, service = self._player_node(master, deadline)
         api = ServerProxy(uri)
         missing = {}
@@ -603,6 +605,7 @@ class BagPlayer:
                              % (self.connect_timeout, missing))
         rospy.wait_for_service(service, timeout=max(deadline - time.time(), 5.0))
         rospy.ServiceProxy(service, _set_bool_service())(False)  # False: do not pause, play
+        self.connect_wait_s = time.time() - t0
 
     def running(self):
         return self.proc.poll() is None
