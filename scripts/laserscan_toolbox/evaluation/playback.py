@@ -240,6 +240,7 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
                     "consumer_cpu_percent": 100.0 * own_cpu / data_s,
                     "wall": wall, "launch": launch.cmd, "player": player.cmd, "clock": "sim",
                     "player_connect_wait_s": player.connect_wait_s,
+                    "player_unconnected": player.unconnected,
                     **extra}
         finally:
             if rec is not None:
