@@ -586,7 +586,6 @@ class BagPlayer:
 
     def _play_when_connected(self):
         import rosgraph
-        import rospy
         master = rosgraph.Master("/evaluation_bag_player")
         t0 = time.time()
         deadline = t0 + self.connect_timeout
@@ -603,8 +602,7 @@ class BagPlayer:
             sys.stderr.write("rosbag play starts although, after %.0f s, these subscribers are not "
                              "connected (their first messages may be lost): %s\n"
                              % (self.connect_timeout, missing))
-        rospy.wait_for_service(service, timeout=max(deadline - time.time(), 5.0))
-        rospy.ServiceProxy(service, _set_bool_service())(False)  # False: do not pause, play
+        call_set_bool(master, service, False)  # False: do not pause, play
         self.connect_wait_s = time.time() - t0
 
     def running(self):
@@ -614,54 +612,41 @@ class BagPlayer:
         stop_process(self.proc, timeout=5)
 
 
-def _set_bool_service():
-    """std_srvs/SetBool for a rospy client (rosbag's ``pause_playback``): Debian packages its
-    definition (ros-std-srvs), not its Python module, so the two messages are written here."""
+def call_set_bool(master, service, value, timeout=30.0):
+    """Calls a std_srvs/SetBool service (rosbag's ``pause_playback``) over TCPROS by hand:
+    Debian packages the service's definition (ros-std-srvs), not its Python module, and rospy's
+    client would tie the call to this process's node (refused once a session has shut it down).
+    Returns the response's ``success``."""
     import struct
+    from urllib.parse import urlparse
 
-    import genpy
+    def framed(fields):
+        body = b"".join(struct.pack("<I", len(f)) + f for f in (("%s=%s" % kv).encode() for kv in fields))
+        return struct.pack("<I", len(body)) + body
 
-    class Request(genpy.Message):
-        _type, _md5sum, _has_header = "std_srvs/SetBoolRequest", "8b94c1b53db61fb6aed406028ad6332a", False
-        _full_text = "bool data"
-        __slots__, _slot_types = ["data"], ["bool"]
+    def read(sock, n):
+        data = b""
+        while len(data) < n:
+            chunk = sock.recv(n - len(data))
+            if not chunk:
+                raise RunError("the service %s closed the connection" % service)
+            data += chunk
+        return data
 
-        def __init__(self, *args, **kwds):
-            super().__init__(*args, **kwds)
-            self.data = bool(self.data) if self.data is not None else False
-
-        def serialize(self, buff):
-            buff.write(struct.pack("<B", 1 if self.data else 0))
-
-        def deserialize(self, str_):
-            self.data = bool(str_[0])
-            return self
-
-    class Response(genpy.Message):
-        _type, _md5sum, _has_header = "std_srvs/SetBoolResponse", "937c9679a518e3a18d831e57125ea522", False
-        _full_text = "bool success\nstring message"
-        __slots__, _slot_types = ["success", "message"], ["bool", "string"]
-
-        def __init__(self, *args, **kwds):
-            super().__init__(*args, **kwds)
-            self.success = bool(self.success) if self.success is not None else False
-            self.message = self.message or ""
-
-        def serialize(self, buff):
-            text = self.message.encode("utf-8")
-            buff.write(struct.pack("<BI", 1 if self.success else 0, len(text)) + text)
-
-        def deserialize(self, str_):
-            self.success = bool(str_[0])
-            (n,) = struct.unpack("<I", str_[1:5])
-            self.message = bytes(str_[5:5 + n]).decode("utf-8", "replace")
-            return self
-
-    class SetBool:
-        _type, _md5sum = "std_srvs/SetBool", "09fb03525b03e7ea1fd3992bafd87e16"
-        _request_class, _response_class = Request, Response
-
-    return SetBool
+    uri = urlparse(master.lookupService(service))
+    with socket.create_connection((uri.hostname, uri.port), timeout=timeout) as sock:
+        sock.sendall(framed([("callerid", "/evaluation_bag_player"), ("service", service),
+                             ("md5sum", "09fb03525b03e7ea1fd3992bafd87e16")]))
+        (n,) = struct.unpack("<I", read(sock, 4))
+        header = read(sock, n)
+        if b"error=" in header:
+            raise RunError("the service %s refused the call: %r" % (service, header))
+        sock.sendall(struct.pack("<IB", 1, 1 if value else 0))
+        ok, n = struct.unpack("<BI", read(sock, 5))
+        payload = read(sock, n)
+        if ok != 1:
+            raise RunError("the service %s failed: %r" % (service, payload))
+        return bool(payload[:1] == b"\x01")
 
 
 def unconnected_subscribers(master, api, node):
