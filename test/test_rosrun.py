@@ -181,3 +181,65 @@ def test_a_roscore_whose_port_a_node_took_starts_on_another(monkeypatch, tmp_pat
     finally:
         node_api.shutdown()
         node_api.server_close()
+
+
+LATE_SUBSCRIBER = r"""
+import rospy
+from sensor_msgs.msg import Range
+rospy.init_node("late_subscriber", disable_signals=True)
+rospy.Subscriber("/range", Range, lambda m: print("%.3f" % m.header.stamp.to_sec(), flush=True),
+                 queue_size=100)
+rospy.spin()
+"""
+
+PLAYER = r"""
+import sys
+from laserscan_toolbox.ros.rosrun import BagPlayer
+player = BagPlayer(sys.argv[1], sys.argv[2]).start()
+print("playing; not connected:", sorted(getattr(player, "unconnected", {})), flush=True)
+player.proc.wait(timeout=60)
+"""
+
+
+def test_a_bag_plays_only_once_every_subscriber_is_connected(tmp_path):
+    # A subscriber that the master lists but that connects late (stopped here for 3 s, as a node
+    # on a loaded machine that has not run since the player advertised) still gets the bag's
+    # first messages: rosbag's own fixed delay (-d 1) sent them to no one.
+    import signal
+    import time
+    import rosbag
+    import rospy
+    from sensor_msgs.msg import Range
+    bag = str(tmp_path / "ranges.bag")
+    stamps = [100.0 + 0.1 * i for i in range(5)]
+    with rosbag.Bag(bag, "w") as b:
+        for s in stamps:
+            m = Range()
+            m.header.stamp, m.header.frame_id = rospy.Time.from_sec(s), "sonar"
+            b.write("/range", m, t=m.header.stamp)
+    scripts = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(rosrun.__file__))))
+    with rosrun.Roscore(str(tmp_path / "ros"), sim_time=False) as core:
+        env = dict(core.env, PYTHONPATH=scripts + os.pathsep + core.env.get("PYTHONPATH", ""))
+        sub = subprocess.Popen([sys.executable, "-c", LATE_SUBSCRIBER], env=env,
+                               stdout=subprocess.PIPE, text=True)
+        try:
+            deadline = time.time() + 30
+            while not any(t == "/range" and "/late_subscriber" in n
+                          for t, n in core.master.getSystemState()[1]):
+                assert time.time() < deadline and sub.poll() is None, "the subscriber did not come up"
+                time.sleep(0.05)
+            os.kill(sub.pid, signal.SIGSTOP)
+            player = subprocess.Popen([sys.executable, "-c", PLAYER, bag, str(tmp_path / "play.log")],
+                                      env=env, stdout=subprocess.PIPE, text=True)
+            time.sleep(3.0)
+            waited = player.poll() is None  # still paused
+            os.kill(sub.pid, signal.SIGCONT)
+            out, _ = player.communicate(timeout=60)
+            assert player.returncode == 0 and "not connected: []" in out, out
+            time.sleep(1.0)
+        finally:
+            os.kill(sub.pid, signal.SIGCONT)
+            sub.terminate()
+            received, _ = sub.communicate(timeout=30)
+    assert [float(x) for x in received.split()] == pytest.approx(stamps), received
+    assert waited

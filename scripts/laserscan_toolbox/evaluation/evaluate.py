@@ -87,6 +87,10 @@ def evaluate(bag, launch_file=DEFAULT_LAUNCH, launch_args=(), config_dir=None, o
         try:
             run = run_pipeline(session, info, launch_file, args, rate=rate, progress=progress,
                                label=label, cpu_window=window)
+            if run.get("player_unconnected"):
+                log("the playback began before these subscribers had connected; the first inputs "
+                    "of their topics may never have reached them (lost by the playback, not "
+                    "dropped by the pipeline): %s" % run["player_unconnected"])
             wall = None
             if window:
                 log("replaying the bag's first %.1f s on wall time (no /clock) for the CPU a "

@@ -21,6 +21,8 @@ from ..ros.rosrun import (REPO, BagPlayer, CpuMeter, RunError, WallClockPlayer, 
                           wait_connected)
 
 DEFAULT_LAUNCH = os.path.join(REPO, "launch", "pipeline.launch")
+#: How long a playback waits (wall time) for the recorder's and the pipeline's connections.
+CONNECT_TIMEOUT_S = 60.0
 SKIP_TOPICS = {"/rosout", "/rosout_agg", "/clock", "/tf", "/tf_static", "/diagnostics"}
 MAX_STAMP = 4294967295.999999999  # ROS 1 time: unsigned 32-bit seconds
 
@@ -174,10 +176,14 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
             outputs = {t: types.get(t, "?") for t in pubs if t not in SKIP_TOPICS}
             to_record = {t: ty for t, ty in outputs.items() if select(t, ty)}
             rec = Recorder(to_record)
-            wait_connected(rec.subs)
+            # Recorded from the first output on (a lazy converter subscribes to its input once
+            # its scan has a subscriber); the player then waits for the pipeline's connections.
+            # 5 s were too short on a loaded machine, and the wait ends as soon as they are there.
+            wait_connected(rec.subs, timeout=CONNECT_TIMEOUT_S)
             procs = launch.processes()
             cpu = CpuMeter(procs)
-            player = BagPlayer(bag_info["path"], os.path.join(wd, label + "_play.log"), rate=rate)
+            player = BagPlayer(bag_info["path"], os.path.join(wd, label + "_play.log"), rate=rate,
+                               connect_timeout=CONNECT_TIMEOUT_S)
             own0 = process_cpu_s(os.getpid())  # this process is the consumer of what it records
             cpu.start()
             player.start()
@@ -233,6 +239,8 @@ def run_pipeline(session, bag_info, launch_file, launch_args=(), rate=1.0, progr
                     "static_tf": list(rec.static_tf.values()), "diagnostics": dict(rec.diagnostics),
                     "consumer_cpu_percent": 100.0 * own_cpu / data_s,
                     "wall": wall, "launch": launch.cmd, "player": player.cmd, "clock": "sim",
+                    "player_connect_wait_s": player.connect_wait_s,
+                    "player_unconnected": player.unconnected,
                     **extra}
         finally:
             if rec is not None:

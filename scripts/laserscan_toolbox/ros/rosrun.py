@@ -16,6 +16,7 @@ import sys
 import tempfile
 import threading
 import time
+from xmlrpc.client import ServerProxy
 
 import psutil
 
@@ -526,25 +527,144 @@ CLOCK_HZ = 200
 
 
 class BagPlayer:
-    """``rosbag play --clock``: the bag on simulated time (/clock at CLOCK_HZ)."""
+    """``rosbag play --clock``: the bag on simulated time (/clock at CLOCK_HZ).
 
-    def __init__(self, bag, log_path, rate=1.0, extra=()):
-        self.cmd = ["rosbag", "play", "--clock", "--hz=%d" % CLOCK_HZ, "-q", "-d", "1", "-r",
+    ``start()`` returns once the player plays: it starts paused and is let go only when each of
+    its topics is connected to every subscriber the master lists for it (or after
+    ``connect_timeout`` s of wall time, with a warning naming the missing connections). rosbag's
+    own ``-d`` (a fixed sleep after advertising) is not enough: a node connects to a new
+    publisher only after the master has told it about one, and on a loaded machine that took
+    more than a second, so the bag's first messages went to no one (at a load of 15-19 the first
+    reading of some sonars and the first camera_info of the cameras: the pipeline never received
+    them, and the evaluation counted their frames as dropped)."""
+
+    def __init__(self, bag, log_path, rate=1.0, extra=(), connect_timeout=60.0):
+        self.cmd = ["rosbag", "play", "--clock", "--hz=%d" % CLOCK_HZ, "-q", "--pause", "-r",
                     str(rate)] + list(extra) + [bag]
         self.log_path = log_path
+        self.connect_timeout = connect_timeout
         self.proc = None
+        self.unconnected = {}  # {topic: subscriber nodes} not connected when playback began
+        self.connect_wait_s = None  # wall time from the player's start to its playing
 
     def start(self):
         with open(self.log_path, "w") as f:
             self.proc = subprocess.Popen(self.cmd, stdout=f, stderr=subprocess.STDOUT,
                                          stdin=subprocess.DEVNULL, start_new_session=True)
+        try:
+            self._play_when_connected()
+        except BaseException:
+            self.stop()
+            raise
         return self
+
+    def _player_node(self, master, deadline):
+        """(node name, XML-RPC URI, pause service) of this player (rosbag's ``play`` binary, a
+        child of the ``rosbag`` script), once it offers its pause service."""
+        while time.time() < deadline:
+            if self.proc.poll() is not None:
+                raise RunError("rosbag play ended (status %d) before playing:\n%s"
+                               % (self.proc.returncode, log_tail(self.log_path)))
+            try:
+                services = master.getSystemState()[2]
+            except Exception:
+                services = []
+            for service, nodes in services:
+                if not service.endswith("/pause_playback"):
+                    continue
+                for node in nodes:
+                    try:
+                        uri = master.lookupNode(node)
+                        pid = ServerProxy(uri).getPid("/evaluation")[2]
+                        if pid == self.proc.pid or psutil.Process(pid).ppid() == self.proc.pid:
+                            return node, uri, service
+                    except Exception:
+                        continue
+            time.sleep(0.05)
+        raise RunError("rosbag play did not come up within %.0f s:\n%s"
+                       % (self.connect_timeout, log_tail(self.log_path)))
+
+    def _play_when_connected(self):
+        import rosgraph
+        master = rosgraph.Master("/evaluation_bag_player")
+        t0 = time.time()
+        deadline = t0 + self.connect_timeout
+        node, uri, service = self._player_node(master, deadline)
+        api = ServerProxy(uri)
+        missing = {}
+        while time.time() < deadline:
+            try:
+                missing = unconnected_subscribers(master, api, node)
+            except Exception as e:  # a node going away between the two calls: ask again
+                missing = {"?": [str(e)]}
+            if not missing:
+                break
+            time.sleep(0.05)
+        self.unconnected = missing
+        if missing:
+            sys.stderr.write("rosbag play starts although, after %.0f s, these subscribers are not "
+                             "connected (their first messages may be lost): %s\n"
+                             % (self.connect_timeout, missing))
+        call_set_bool(master, service, False)  # False: do not pause, play
+        self.connect_wait_s = time.time() - t0
 
     def running(self):
         return self.proc.poll() is None
 
     def stop(self):
         stop_process(self.proc, timeout=5)
+
+
+def call_set_bool(master, service, value, timeout=30.0):
+    """Calls a std_srvs/SetBool service (rosbag's ``pause_playback``) over TCPROS by hand:
+    Debian packages the service's definition (ros-std-srvs), not its Python module, and rospy's
+    client would tie the call to this process's node (refused once a session has shut it down).
+    Returns the response's ``success``."""
+    import struct
+    from urllib.parse import urlparse
+
+    def framed(fields):
+        body = b"".join(struct.pack("<I", len(f)) + f for f in (("%s=%s" % kv).encode() for kv in fields))
+        return struct.pack("<I", len(body)) + body
+
+    def read(sock, n):
+        data = b""
+        while len(data) < n:
+            chunk = sock.recv(n - len(data))
+            if not chunk:
+                raise RunError("the service %s closed the connection" % service)
+            data += chunk
+        return data
+
+    uri = urlparse(master.lookupService(service))
+    with socket.create_connection((uri.hostname, uri.port), timeout=timeout) as sock:
+        sock.sendall(framed([("callerid", "/evaluation_bag_player"), ("service", service),
+                             ("md5sum", "09fb03525b03e7ea1fd3992bafd87e16")]))
+        (n,) = struct.unpack("<I", read(sock, 4))
+        header = read(sock, n)
+        if b"error=" in header:
+            raise RunError("the service %s refused the call: %r" % (service, header))
+        sock.sendall(struct.pack("<IB", 1, 1 if value else 0))
+        ok, n = struct.unpack("<BI", read(sock, 5))
+        payload = read(sock, n)
+        if ok != 1:
+            raise RunError("the service %s failed: %r" % (service, payload))
+        return bool(payload[:1] == b"\x01")
+
+
+def unconnected_subscribers(master, api, node):
+    """{topic: [subscriber nodes]}: the subscribers the master lists for a topic that ``node``
+    (whose XML-RPC server is ``api``) publishes and that it has no connection to yet."""
+    state = master.getSystemState()
+    published = {t for t, nodes in state[0] if node in nodes}
+    subscribers = {t: set(nodes) - {node} for t, nodes in state[1] if t in published}
+    connected = {}
+    for link in api.getBusInfo(node)[2]:
+        # [connection id, the other end's node, direction, transport, topic, connected, ...]
+        if len(link) > 5 and link[2] == "o" and link[5]:
+            connected.setdefault(link[4], set()).add(link[1])
+    missing = {t: sorted(subs - connected.get(t, set())) for t, subs in subscribers.items()}
+    return {t: m for t, m in missing.items() if m}
 
 
 class WallClockPlayer:
