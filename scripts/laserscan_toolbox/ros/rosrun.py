@@ -8,6 +8,7 @@ processes get their own process group and are stopped by that id only.
 
 import contextlib
 import os
+import random
 import shutil
 import signal
 import socket
@@ -104,7 +105,6 @@ def free_port():
     XML-RPC and TCPROS servers to port 0 (a port of that range), and one of them took a port that
     bind(0) had handed out here before the roscore meant for it had bound it (a long navigation
     sweep's master failed so)."""
-    import random
     high = _ephemeral_low()
     low = max(1024, high - 12000)
     for _ in range(200):
@@ -219,14 +219,13 @@ class Roscore:
 
     def _listening(self):
         """Whether a process of our roscore's tree listens on self.port."""
-        try:
-            root = psutil.Process(self.proc.pid)
-            for p in [root] + root.children(recursive=True):
-                for c in p.connections(kind="tcp"):
-                    if c.status == psutil.CONN_LISTEN and c.laddr and c.laddr.port == self.port:
-                        return True
-        except psutil.Error:
-            pass
+        for p in cpu_accounting.tree_processes(self.proc.pid, include_root=True):
+            try:
+                if any(c.status == psutil.CONN_LISTEN and c.laddr and c.laddr.port == self.port
+                       for c in p.connections(kind="tcp")):
+                    return True
+            except psutil.Error:
+                continue
         return False
 
     def __exit__(self, *exc):
@@ -576,7 +575,8 @@ class BagPlayer:
                     try:
                         uri = master.lookupNode(node)
                         pid = ServerProxy(uri).getPid("/evaluation")[2]
-                        if pid == self.proc.pid or psutil.Process(pid).ppid() == self.proc.pid:
+                        ours = cpu_accounting.tree_processes(self.proc.pid, include_root=True)
+                        if pid in {p.pid for p in ours}:
                             return node, uri, service
                     except Exception:
                         continue
