@@ -54,21 +54,23 @@ const Input& synthetic()
 // The synthetic room with the robot's 6-link arm, and the shapes posed for the self filter:
 // boxes, a cylinder and a sphere, as a URDF's collision elements would give. Three poses of the
 // whole arm: reaching into the camera's view (a fifth of the cloud's points lie on its padded
-// shapes, the case and the worst one), the same turned by `yaw` about the vertical
-// (room, camera and arm together: the links are then turned against the reference axes, as
-// an arm's links mostly are, and their blocks of points seldom lie in a shape's inner box), and
-// beside the base, moved by `arm_offset`, with the gripper and wrists at the edge of the view
-// (one point in twenty on it, the arm's shapes still posed and their union box still in the
-// view, as while the arm works beside the camera).
+// shapes, the case), the same turned by `yaw` about the vertical (room, camera and arm
+// together: the links and the camera's rows are then turned against the reference axes, as on
+// a camera mounted at an angle), the camera alone turned by `camera_yaw` (the links turned
+// against the camera's rows, as an arm's links mostly are: the blocks of a row cross them
+// at an angle), and beside the base, moved by `arm_offset`, with the gripper and wrists at the
+// edge of the view (one point in twenty on it, the arm's shapes still posed and their union box
+// still in the view, as while the arm works beside the camera).
 struct ArmInput
 {
   Input in;
   laserscan_common::SelfFilter filter;
   std::vector<Eigen::Isometry3d> poses;  // reference <- link frame, as tf gives them per cloud
   std::size_t arm_points = 0;            // valid points inside the padded shapes
+  double row_yaw = 0.0;                  // the camera's image rows, as the node gives it (imageRowYaw)
 };
 
-ArmInput makeArmInput(const Vector3d& arm_offset, double yaw = 0.0)
+ArmInput makeArmInput(const Vector3d& arm_offset, double yaw = 0.0, double camera_yaw = 0.0)
 {
   const Eigen::Isometry3d turn(Eigen::AngleAxisd(yaw, Vector3d::UnitZ()));
   ArmInput a;
@@ -106,9 +108,10 @@ ArmInput makeArmInput(const Vector3d& arm_offset, double yaw = 0.0)
     poses.push_back(turn * Eigen::Translation3d(0.5 * (links[i].lo + links[i].hi)));
   }
   a.filter = laserscan_common::SelfFilter(shapes, "self_filter/shapes");
-  a.filter.setFramePoses(poses);
-  const Eigen::Isometry3d camera_to_scene = cameraMount(0.6, 20 * kDeg);
+  const Eigen::Isometry3d camera_to_scene = cameraMount(0.6, 20 * kDeg, 0.0, camera_yaw);
   a.in.camera_to_reference = turn * camera_to_scene;
+  a.row_yaw = laserscan_common::imageRowYaw(a.in.camera_to_reference.linear());
+  a.filter.setFramePoses(poses, a.row_yaw);
   const Points pts = render(scene, camera_to_scene, 320, 163, 87 * kDeg);
   a.in.cloud = makeCloud<float>(pts, 320, 163, 0, 16);
   a.in.view = a.in.cloud.view();
@@ -132,6 +135,12 @@ const ArmInput& syntheticWithArm()
 const ArmInput& syntheticWithArmTurned()
 {
   static const ArmInput input = makeArmInput(Vector3d::Zero(), 30 * kDeg);
+  return input;
+}
+
+const ArmInput& syntheticWithArmAcross()
+{
+  static const ArmInput input = makeArmInput(Vector3d::Zero(), 0.0, 20 * kDeg);
   return input;
 }
 
@@ -201,7 +210,7 @@ void runArmCloud(benchmark::State& state, const ArmInput& a, bool self_filter)
   for (auto _ : state)
   {
     if (self_filter)
-      filter.setFramePoses(a.poses);
+      filter.setFramePoses(a.poses, a.row_yaw);
     projector.project(a.in.view, a.in.camera_to_reference, ranges, nullptr, nullptr, self_filter ? &filter : nullptr);
     benchmark::DoNotOptimize(ranges.data());
   }
@@ -325,6 +334,10 @@ void runArmTurned(benchmark::State& s, bool self_filter)
 {
   runArmCloud(s, syntheticWithArmTurned(), self_filter);
 }
+void runArmAcross(benchmark::State& s, bool self_filter)
+{
+  runArmCloud(s, syntheticWithArmAcross(), self_filter);
+}
 void runArmAside(benchmark::State& s, bool self_filter)
 {
   runArmCloud(s, syntheticWithArmAside(), self_filter);
@@ -337,6 +350,8 @@ BENCHMARK_CAPTURE(runArm, WithoutSelfFilter, false)->Unit(benchmark::kMillisecon
 BENCHMARK_CAPTURE(runArm, WithSelfFilter, true)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runArmTurned, WithoutSelfFilter, false)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runArmTurned, WithSelfFilter, true)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runArmAcross, WithoutSelfFilter, false)->Unit(benchmark::kMillisecond)->MinTime(1.0);
+BENCHMARK_CAPTURE(runArmAcross, WithSelfFilter, true)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runArmAside, WithoutSelfFilter, false)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK_CAPTURE(runArmAside, WithSelfFilter, true)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 BENCHMARK(BM_Reference_FivePeople640x480)->Unit(benchmark::kMillisecond)->MinTime(1.0);
@@ -377,6 +392,7 @@ public:
     std::printf("\n%-24s %10s %18s %8s\n", "cloud with 6-link arm", "core [ms]", "with self filter", "ratio");
     for (const auto& [arm, cloud] : { std::pair<const char*, const char*>{ "runArm", "Synthetic320x163Arm" },
                                       { "runArmTurned", "Synthetic320x163ArmTurned" },
+                                      { "runArmAcross", "Synthetic320x163ArmAcross" },
                                       { "runArmAside", "Synthetic320x163ArmAside" } })
     {
       const double without = median(std::string(arm) + "/WithoutSelfFilter");
@@ -428,6 +444,7 @@ int main(int argc, char** argv)
   std::printf("synthetic: %zu points, %zu valid\n", synthetic().view.size(), synthetic().valid_points);
   for (const auto& [arm, name] : { std::pair<const ArmInput*, const char*>{ &syntheticWithArm(), "" },
                                    { &syntheticWithArmTurned(), " turned" },
+                                   { &syntheticWithArmAcross(), " across the camera" },
                                    { &syntheticWithArmAside(), " aside" } })
     std::printf("synthetic with arm%s: %zu points, %zu valid, %zu on the arm's padded shapes\n", name,
                 arm->in.view.size(), arm->in.valid_points, arm->arm_points);

@@ -370,10 +370,11 @@ void DepthFilterScanConverter::convert(const M& message, const std::uint8_t* byt
                                     laserscan_common::stampText(cloud->header.stamp.sec, cloud->header.stamp.nsec) +
                                     " is not finite (a chain of transforms sums to infinity)");
     camera_to_reference = tf2::transformToEigen(transform);
-    // The robot's parts where they are at the cloud's stamp: one lookup per frame.
+    // The robot's parts where they are at the cloud's stamp: one lookup per frame. The block
+    // test bounds runs of a row's points in axes along the camera's rows.
     if (!self_filter_.empty())
       laserscan_common::setFramePosesAt(tf_buffer_, params_.transform.reference_frame, cloud->header.stamp,
-                                        self_filter_);
+                                        self_filter_, laserscan_common::imageRowYaw(camera_to_reference.linear()));
   }
   catch (const std::exception& e)  // tf2 also throws std::runtime_error on stamps past 32 bits
   {

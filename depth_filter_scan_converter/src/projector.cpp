@@ -242,14 +242,12 @@ DFSC_DEPTH_KERNELS(kernelDepthMetres, float)
 #undef DFSC_DEPTH_KERNELS
 #undef DFSC_DEPTH_KERNEL
 
-// The self filter on a chunk after pass 2: the points the kernel marked near_self (they would
-// be projected and lie inside the shapes' bounding box) are tested against the shapes; those
-// inside a shape get kSelfR2. Cloned like the kernels, so that the inlined shape tests vectorize
-// too.
+// The self filter on a chunk after pass 2 that holds a point the kernel marked near_self (it
+// would be projected and lies inside the shapes' bounding box): those points are tested against
+// the shapes; those inside a shape get kSelfR2. Cloned like the kernels, so that the inlined
+// shape tests vectorize too.
 DFSC_CLONES void removeSelfPoints(const laserscan_common::SelfFilter& filter, std::uint32_t n, Chunk& c)
 {
-  if (!c.any_near_self)
-    return;  // most chunks: no point near the robot
   float* const r2s = c.r2s;
   filter.forEachInside(
     n, c.xs, c.ys, c.zs, c.near_self,
@@ -351,7 +349,7 @@ void Projector::run(const CloudView& v, const Frame& f, std::vector<float>* kept
     {
       const std::uint32_t n = std::min(kChunk, (v.width - c0 + f.column_stride - 1) / f.column_stride);
       kernel(row + static_cast<std::size_t>(c0) * v.point_step, col_step, v.x_offset, v.y_offset, v.z_offset, n, f, c);
-      if (f.self)
+      if (f.self && c.any_near_self)  // most chunks: no point near the robot, no call
         removeSelfPoints(*f.self, n, c);
       Record record = recordSpace(f, n);
       keepClosest<kIndex, kKeep>(c, n, r * v.width + c0, f.column_stride, best, best_index, kept, record);
@@ -390,7 +388,7 @@ void Projector::runDepth(const DepthImageView& v, const Frame& f, std::vector<fl
     {
       const std::uint32_t n = std::min<std::uint32_t>(kChunk, static_cast<std::uint32_t>(column_offsets_.size()) - k0);
       kernel(row + k0 * col_step, col_step, column_offsets_.data() + k0, dv, kx, ky, unit, n, f, c);
-      if (f.self)
+      if (f.self && c.any_near_self)  // most chunks: no point near the robot, no call
         removeSelfPoints(*f.self, n, c);
       Record record = recordSpace(f, n);
       keepClosest<false, kKeep>(c, n, 0, 0, best, nullptr, kept, record);

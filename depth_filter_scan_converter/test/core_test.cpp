@@ -876,7 +876,10 @@ namespace
 // for points within 0.1 mm of the surface (inside the shapes grown by 0.1 mm, outside the ones
 // shrunk by 0.1 mm). along_axes: the shapes turned by right angles about z only, so that most
 // blocks of their points take the block test's shortcut (a block in a shape's inner box).
-void expectKeptPointsAreTheBruteForceSelection(unsigned seed, bool along_axes)
+// yaw: room, camera and robot turned together about the vertical, the filter's block frame
+// along the camera's rows as the node sets it (imageRowYaw), so that the shortcut runs in a
+// turned frame.
+void expectKeptPointsAreTheBruteForceSelection(unsigned seed, bool along_axes, double yaw = 0.0)
 {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -909,10 +912,15 @@ void expectKeptPointsAreTheBruteForceSelection(unsigned seed, bool along_axes)
       s.padding -= 2e-4, shrunk.push_back(s);
       poses.push_back(Eigen::Isometry3d(Eigen::Translation3d(centre)));
     }
+    const Eigen::Isometry3d turn(Eigen::AngleAxisd(yaw, Vector3d::UnitZ()));
+    for (Eigen::Isometry3d& pose : poses)
+      pose = turn * pose;
+    const Eigen::Isometry3d scene_cam = cameraMount(0.4 + 0.5 * unit(rng), (5.0 + 25.0 * unit(rng)) * kDeg);
+    const Eigen::Isometry3d cam = turn * scene_cam;
+    const double row_yaw = laserscan_common::imageRowYaw(cam.linear());
     laserscan_common::SelfFilter filter(shapes, "shapes"), outer(grown, "grown"), inner(shrunk, "shrunk");
-    filter.setFramePoses(poses), outer.setFramePoses(poses), inner.setFramePoses(poses);
-    const Eigen::Isometry3d cam = cameraMount(0.4 + 0.5 * unit(rng), (5.0 + 25.0 * unit(rng)) * kDeg);
-    const TestCloud cloud = makeCloud<float>(render(scene, cam, 300, 60, 80 * kDeg), 300, 60);
+    filter.setFramePoses(poses, row_yaw), outer.setFramePoses(poses), inner.setFramePoses(poses);
+    const TestCloud cloud = makeCloud<float>(render(scene, scene_cam, 300, 60, 80 * kDeg), 300, 60);
     dfsc::Parameters p;
     dfsc::Projector proj(p);
     std::vector<float> ranges, all, kept;
@@ -952,6 +960,12 @@ TEST(SelfFilter, KeptPointsAreTheBruteForceSelectionOnRandomScenesAndRobots)
 TEST(SelfFilter, KeptPointsAreTheBruteForceSelectionWithShapesAlongTheAxes)
 {
   expectKeptPointsAreTheBruteForceSelection(22, true);
+}
+
+TEST(SelfFilter, KeptPointsAreTheBruteForceSelectionWithTheCameraAtAYaw)
+{
+  expectKeptPointsAreTheBruteForceSelection(23, false, 35 * kDeg);
+  expectKeptPointsAreTheBruteForceSelection(24, true, -50 * kDeg);
 }
 
 TEST(SelfFilter, AMovedLinkIsFilteredWhereItIsNow)

@@ -1,6 +1,7 @@
 #include "laserscan_common/self_filter.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "laserscan_common/parameter_error.hpp"
@@ -59,11 +60,31 @@ SelfFilter::SelfFilter(std::vector<RobotShape> shapes, const std::string& parame
   box_lanes_.assign((shapes_.size() + lanes::kLanes - 1) / lanes::kLanes, unused);
 }
 
-void SelfFilter::setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T_frame)
+double imageRowYaw(const Eigen::Matrix3d& reference_R_camera)
+{
+  const Eigen::Vector3d x = reference_R_camera.col(0), y = reference_R_camera.col(1);
+  const Eigen::Vector3d& row = x.head<2>().squaredNorm() >= y.head<2>().squaredNorm() ? x : y;
+  return std::atan2(row.y(), row.x());
+}
+
+void SelfFilter::setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T_frame, double row_yaw)
 {
   if (reference_T_frame.size() != frames_.size())
     throw std::invalid_argument("SelfFilter::setFramePoses: " + std::to_string(reference_T_frame.size()) +
                                 " poses for " + std::to_string(frames_.size()) + " frames");
+  // The block frame, turned by row_yaw modulo 90 degrees into [-45, 45]; not turned within a
+  // micro-radian of the axes (the turn costs four vector operations per block).
+  const double quarter = kPi / 2.0;
+  double yaw = std::isfinite(row_yaw) ? row_yaw - quarter * std::round(row_yaw / quarter) : 0.0;
+  turned_ = std::abs(yaw) > 1e-6;
+  yaw = turned_ ? yaw : 0.0;
+  row_cos_ = static_cast<float>(std::cos(yaw));
+  row_sin_ = static_cast<float>(std::sin(yaw));
+  // reference <- block, from the float cosine and sine markBlock uses, so that the boxes below
+  // are in the frame the points are turned into.
+  Eigen::Matrix3d reference_R_block;
+  reference_R_block << row_cos_, -row_sin_, 0.0, row_sin_, row_cos_, 0.0, 0.0, 0.0, 1.0;
+  const Eigen::Matrix3d block_R_reference = reference_R_block.transpose();
   bounds_ = Bounds();
   for (std::size_t i = 0; i < shapes_.size(); ++i)
   {
@@ -85,11 +106,14 @@ void SelfFilter::setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T
     p.radius2 = shape.kind == ShapeKind::kBox ? 0.0f : static_cast<float>(radius * radius);
     // The box's extent along each reference axis: sum over the shape's axes of |R| * h. A
     // cylinder and a sphere lie inside their box of half extents h, so the same bound holds.
-    const Eigen::Vector3d centre = reference_T_shape.translation();
-    const Eigen::Vector3d extent = reference_T_shape.linear().cwiseAbs() * h;
-    p.bounds.lo = (centre - extent).cast<float>();
-    p.bounds.hi = (centre + extent).cast<float>();
+    const Eigen::Vector3d reference_extent = reference_T_shape.linear().cwiseAbs() * h;
+    p.bounds.lo = (reference_T_shape.translation() - reference_extent).cast<float>();
+    p.bounds.hi = (reference_T_shape.translation() + reference_extent).cast<float>();
     p.round = shape.kind != ShapeKind::kBox;
+    // The block test's boxes, in the block frame (the reference frame when not turned).
+    const Eigen::Matrix3d block_R_shape = block_R_reference * reference_T_shape.linear();
+    const Eigen::Vector3d centre = block_R_reference * reference_T_shape.translation();
+    const Eigen::Vector3d extent = block_R_shape.cwiseAbs() * h;
     // The culling box of the block test, a little larger than the shape's box: the exact test
     // runs in float with a rounded transform, so a point it finds inside may lie a rounding
     // error outside the box; with the margin, culling never drops a shape contains() would find.
@@ -109,7 +133,7 @@ void SelfFilter::setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T
     p.inner = Bounds();
     if ((b.array() > 0.0).all())
     {
-      const Eigen::Matrix3d abs_r = reference_T_shape.linear().cwiseAbs();
+      const Eigen::Matrix3d abs_r = block_R_shape.cwiseAbs();
       const Eigen::Vector3d inner_extent = abs_r * b;
       Eigen::Vector3d a = inner_extent * (b.array() / (abs_r.transpose() * inner_extent).array()).minCoeff();
       for (int axis = 0; axis < 3; ++axis)

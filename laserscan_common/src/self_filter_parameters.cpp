@@ -159,7 +159,7 @@ SelfFilter makeSelfFilter(const SelfFilterParams& params, const ros::NodeHandle&
 }
 
 void setFramePosesAt(const tf2::BufferCore& buffer, const std::string& target, const ros::Time& stamp,
-                     SelfFilter& filter)
+                     SelfFilter& filter, double row_yaw)
 {
   std::vector<Eigen::Isometry3d> poses;
   for (const std::string& frame : filter.frames())
@@ -174,7 +174,7 @@ void setFramePosesAt(const tf2::BufferCore& buffer, const std::string& target, c
     pose.translation() = Eigen::Vector3d(p.x, p.y, p.z);
     poses.push_back(pose);
   }
-  filter.setFramePoses(poses);
+  filter.setFramePoses(poses, row_yaw);
 }
 
 }  // namespace laserscan_common

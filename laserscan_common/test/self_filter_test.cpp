@@ -272,7 +272,8 @@ TEST(SelfFilterShapes, BlockTestEqualsTheBruteForcePointTestOnRandomCloudsAndSha
 {
   // Differential test of the block culling (the box of a block's active points against 8
   // shapes' boxes at once, the exact test only for the shapes it meets): random robots of 1 to
-  // 19 shapes (more than one group of 8) of every kind at random poses, random point counts
+  // 19 shapes (more than one group of 8) of every kind at random poses, in a block frame turned
+  // by a random yaw every other trial, random point counts
   // (blocks and a tail), points in runs along random lines (as rows of a depth image: blocks
   // then meet few shapes) and scattered ones, random inactive points, some NaN. Every point must
   // come out as the brute-force test says: active and inside one of the shapes.
@@ -296,7 +297,8 @@ TEST(SelfFilterShapes, BlockTestEqualsTheBruteForcePointTestOnRandomCloudsAndSha
                            6.0 * unit(rng), 6.0 * unit(rng)));
     }
     lc::SelfFilter f(shapes, "shapes");
-    f.setFramePoses(poses);
+    // Every other trial with the block frame turned (a camera's rows at a random yaw).
+    f.setFramePoses(poses, trial % 2 ? 8.0 * unit(rng) - 4.0 : 0.0);
     const std::size_t n = 200 + static_cast<std::size_t>(unit(rng) * 3000);
     std::vector<float> xs(n), ys(n), zs(n);
     std::vector<std::int32_t> active(n);
@@ -384,18 +386,25 @@ TEST(SelfFilterShapes, BlocksInsideAShapeEqualTheBruteForcePointTest)
   // Differential test of the block test's shortcut (a block whose active points' box lies in a
   // shape's inner box is inside without a point test) and of the exact test beside it: robots
   // of 1 to 10 shapes turned by right angles (their inner box is the padded shape) or slightly
-  // or strongly tilted, runs of points inside them, along their faces, across their padded
-  // surface a few micrometres apart and beside them, some inactive. Every point must come out
-  // as the brute-force test says, and many blocks must lie in an inner box.
+  // or strongly tilted, every other trial all turned by a random yaw with the block frame
+  // (a camera at that yaw: setFramePoses's row_yaw), runs of points inside them, along their
+  // faces, across their padded surface a few micrometres apart and beside them, some inactive.
+  // Every point must come out as the brute-force test says, and many blocks must lie in an
+  // inner box, in either block frame.
   std::mt19937 rng(2121);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const std::size_t block = lc::SelfFilter::kMarkBlock;
-  std::size_t blocks_within = 0, inside_total = 0, outside_near_total = 0;
+  std::size_t blocks_within = 0, blocks_within_turned = 0, inside_total = 0, outside_near_total = 0;
   for (int trial = 0; trial < 80; ++trial)
   {
+    const double row_yaw = trial % 2 ? 2.0 * kPi * unit(rng) : 0.0;
+    const Eigen::Matrix3d turn = Eigen::AngleAxisd(row_yaw, Vector3d::UnitZ()).toRotationMatrix();
+    // The block frame: turned by row_yaw modulo 90 degrees, so `turn` up to a right angle.
+    const Eigen::Matrix3d block_R_reference =
+      Eigen::AngleAxisd(-(row_yaw - kPi / 2 * std::round(row_yaw / (kPi / 2))), Vector3d::UnitZ()).toRotationMatrix();
     const int count = 1 + static_cast<int>(unit(rng) * 10);
     std::vector<lc::RobotShape> shapes;
-    std::vector<Isometry3d> poses;
+    std::vector<Isometry3d> poses, turned_poses;
     for (int i = 0; i < count; ++i)
     {
       const auto kind = static_cast<lc::ShapeKind>(static_cast<int>(unit(rng) * 3) % 3);
@@ -408,9 +417,13 @@ TEST(SelfFilterShapes, BlocksInsideAShapeEqualTheBruteForcePointTest)
       poses.push_back(pose({ 0.4 + 1.2 * unit(rng), 1.2 * unit(rng) - 0.6, 1.0 * unit(rng) },
                            kPi / 2 * static_cast<int>(unit(rng) * 4) + tilt, kPi / 2 * static_cast<int>(unit(rng) * 4),
                            kPi / 2 * static_cast<int>(unit(rng) * 4) - tilt));
+      turned_poses.push_back(Isometry3d(turn) * poses.back());
     }
-    lc::SelfFilter f(shapes, "shapes");
-    f.setFramePoses(poses);
+    // The runs are made around the robot as it stands in `unturned` (f's block frame up to a
+    // right angle); f sees them turned.
+    lc::SelfFilter unturned(shapes, "shapes"), f(shapes, "shapes");
+    unturned.setFramePoses(poses);
+    f.setFramePoses(turned_poses, row_yaw);
     const std::size_t n =
       block * (20 + static_cast<std::size_t>(unit(rng) * 60)) + static_cast<std::size_t>(unit(rng) * 40);
     std::vector<float> xs(n), ys(n), zs(n);
@@ -421,7 +434,7 @@ TEST(SelfFilterShapes, BlocksInsideAShapeEqualTheBruteForcePointTest)
       // point inside it, or from a face, a corner or a point just across it, with steps from
       // micrometres to centimetres.
       const lc::PosedShape& s =
-        f.posed()[static_cast<std::size_t>(unit(rng) * count) % static_cast<std::size_t>(count)];
+        unturned.posed()[static_cast<std::size_t>(unit(rng) * count) % static_cast<std::size_t>(count)];
       const Eigen::Vector3d lo = s.bounds.lo.cast<double>(), hi = s.bounds.hi.cast<double>();
       Vector3d p = lo + (hi - lo).cwiseProduct(Vector3d(unit(rng), unit(rng), unit(rng)));
       const double where = unit(rng);
@@ -430,21 +443,23 @@ TEST(SelfFilterShapes, BlocksInsideAShapeEqualTheBruteForcePointTest)
         p(axis) = (unit(rng) < 0.5 ? lo(axis) : hi(axis)) + (unit(rng) - 0.5) * 2e-5;  // across a face
       const double size = where < 0.6 ? 1e-3 : 0.02;
       const Vector3d step = size * Vector3d(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5);
+      lc::Bounds box;  // of the block's active points, in the block frame
       for (std::size_t i = b0; i < std::min(n, b0 + block); ++i, p += step)
       {
-        xs[i] = static_cast<float>(p.x()), ys[i] = static_cast<float>(p.y()), zs[i] = static_cast<float>(p.z());
+        const Eigen::Vector3f q = (turn * p).cast<float>();
+        xs[i] = q.x(), ys[i] = q.y(), zs[i] = q.z();
         active[i] = unit(rng) < 0.95 ? 1 : 0;
+        const Eigen::Vector3f b = (block_R_reference * q.cast<double>()).cast<float>();
+        if (active[i])
+          box.extend({ b, b });
       }
       // Count the blocks the shortcut takes: active points' box in a shape's inner box.
-      lc::Bounds box;
-      for (std::size_t i = b0; i < std::min(n, b0 + block); ++i)
-        if (active[i])
-          box.extend({ Eigen::Vector3f(xs[i], ys[i], zs[i]), Eigen::Vector3f(xs[i], ys[i], zs[i]) });
       for (const lc::PosedShape& t : f.posed())
         if (b0 + block <= n && !box.empty() && !t.inner.empty() && (box.lo.array() >= t.inner.lo.array()).all() &&
             (box.hi.array() <= t.inner.hi.array()).all())
         {
           ++blocks_within;
+          blocks_within_turned += row_yaw != 0.0 ? 1 : 0;
           break;
         }
     }
@@ -453,8 +468,28 @@ TEST(SelfFilterShapes, BlocksInsideAShapeEqualTheBruteForcePointTest)
       return;
   }
   EXPECT_GT(blocks_within, 500u);
+  EXPECT_GT(blocks_within_turned, 250u);
   EXPECT_GT(inside_total, 40000u);
   EXPECT_GT(outside_near_total, 5000u);
+}
+
+TEST(SelfFilterShapes, ImageRowYawIsTheDirectionOfACamerasRows)
+{
+  // An optical frame (x right, y down, z forward) and a body frame (x forward, y left), yawed by
+  // 30 degrees and pitched down: their rows run along the same horizontal direction (modulo 90
+  // degrees, which is the same block frame).
+  const double yaw = 30.0 * kPi / 180.0, pitch = 20.0 * kPi / 180.0;
+  const Eigen::Matrix3d body =
+    (Eigen::AngleAxisd(yaw, Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Vector3d::UnitY())).toRotationMatrix();
+  Eigen::Matrix3d optical_to_body;
+  optical_to_body << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  const auto modQuarter = [](double a) { return a - kPi / 2 * std::round(a / (kPi / 2)); };
+  EXPECT_NEAR(modQuarter(lc::imageRowYaw(body * optical_to_body)), modQuarter(yaw), 1e-9);
+  EXPECT_NEAR(modQuarter(lc::imageRowYaw(body)), modQuarter(yaw), 1e-9);
+  // A camera looking straight down: its rows are still horizontal.
+  const Eigen::Matrix3d down = Eigen::AngleAxisd(yaw, Vector3d::UnitZ()).toRotationMatrix() *
+                               Eigen::AngleAxisd(kPi / 2, Vector3d::UnitY()).toRotationMatrix();
+  EXPECT_NEAR(modQuarter(lc::imageRowYaw(down)), modQuarter(yaw), 1e-9);
 }
 
 TEST(SelfFilterShapes, BadShapesNameThemselves)

@@ -137,9 +137,9 @@ struct PosedShape
   float radius2, radial_weight, axial_weight;
   bool round;     ///< a cylinder or a sphere (for a box the round term is 0 <= 0 whenever |q| <= h)
   Bounds bounds;  ///< of the padded shape, in the reference frame
-  /// A box aligned with the reference axes inside the padded shape, by more than the rounding of
-  /// insidePosed: every point in it is inside (thin for a shape turned against the axes, empty
-  /// only for one thinner than that margin).
+  /// A box aligned with the block frame's axes (SelfFilter::setFramePoses) inside the padded
+  /// shape, by more than the rounding of insidePosed: every point in it is inside (thin for a
+  /// shape turned against those axes, empty only for one thinner than that margin).
   Bounds inner;
 };
 
@@ -157,7 +157,7 @@ inline bool insidePosed(const PosedShape& s, float x, float y, float z)
 /// no box), for the block test: one vector comparison tests a block's box against 8 shapes.
 struct alignas(32) ShapeBoxLanes
 {
-  float lo[3][lanes::kLanes];  ///< culling box (PosedShape::bounds grown against rounding)
+  float lo[3][lanes::kLanes];  ///< culling box (the shape's box in the block frame, grown against rounding)
   float hi[3][lanes::kLanes];
   float inner_lo[3][lanes::kLanes];  ///< PosedShape::inner (NaN when empty)
   float inner_hi[3][lanes::kLanes];
@@ -180,7 +180,12 @@ public:
 
   /// Where each frame of frames() is: reference <- frame, same order (std::invalid_argument if the
   /// count differs). Computes the posed shapes and their bounding box.
-  void setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T_frame);
+  /// `row_yaw` (rad) turns the block frame of forEachInside about the reference z axis: the
+  /// direction along which the points it is given lie in runs (a camera's image rows,
+  /// imageRowYaw), so that the box around a block of a row is thin. Any value gives the same
+  /// result; only the speed differs. Taken modulo 90 degrees (a box turned by a right angle is
+  /// the same box).
+  void setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T_frame, double row_yaw = 0.0);
 
   /// The padded shapes' bounding box in the reference frame at the poses last set: a point
   /// outside it is outside every shape (the prefilter of the hot loops).
@@ -221,7 +226,7 @@ public:
   static constexpr std::size_t kMarkBlock = 32;
 
 private:
-  template <class Hit>
+  template <bool kTurned, class Hit>
   inline std::int32_t markBlock(const float* bx, const float* by, const float* bz, const std::int32_t* ba,
                                 std::size_t first, Hit& hit) const;
 
@@ -231,15 +236,23 @@ private:
   std::vector<PosedShape> posed_;
   std::vector<ShapeBoxLanes> box_lanes_;  ///< the shapes' culling boxes, 8 shapes per entry
   Bounds bounds_;
+  bool turned_ = false;  ///< the block frame is turned (row_yaw not a multiple of 90 degrees)
+  float row_cos_ = 1.0f, row_sin_ = 0.0f;
 };
 
-/// One full block of kMarkBlock points: the box around its active points (vector min/max over
-/// its 4 vectors, then across lanes), compared with 8 shapes' boxes at once. A block whose box
-/// lies in a shape's inner box is inside without a point test (the robot's points come in runs
-/// on its parts: most blocks of an arm's points in a camera's view); otherwise the exact test
+/// The yaw of a camera's image rows in a reference frame whose z axis is vertical, for
+/// SelfFilter::setFramePoses: the direction of the more horizontal of the camera's x and y axes
+/// (its x axis in an optical frame, y in a body frame; the same block frame modulo 90 degrees).
+double imageRowYaw(const Eigen::Matrix3d& reference_R_camera);
+
+/// One full block of kMarkBlock points: the box around its active points in the block frame
+/// (kTurned: the reference frame turned by row_yaw; vector min/max over its 4 vectors, then
+/// across lanes), compared with 8 shapes' boxes at once. A block whose box lies in a shape's
+/// inner box is inside without a point test (the robot's points come in runs on its parts: most
+/// blocks of an arm's points in a camera's view); otherwise the exact test
 /// runs only for the shapes whose culling box it meets (a box without the round term). Inactive
 /// points (maybe NaN) are left out of the box and never marked; active points must be finite.
-template <class Hit>
+template <bool kTurned, class Hit>
 __attribute__((always_inline)) inline std::int32_t SelfFilter::markBlock(const float* bx, const float* by,
                                                                          const float* bz, const std::int32_t* ba,
                                                                          std::size_t first, Hit& hit) const
@@ -269,8 +282,15 @@ __attribute__((always_inline)) inline std::int32_t SelfFilter::markBlock(const f
     Ints xi, yi, zi;
     std::memcpy(&xi, bx + v * kL, sizeof xi), std::memcpy(&yi, by + v * kL, sizeof yi);
     std::memcpy(&zi, bz + v * kL, sizeof zi);
-    const Floats x = reinterpret_cast<Floats>(xi | off), y = reinterpret_cast<Floats>(yi | off),
-                 z = reinterpret_cast<Floats>(zi | off);
+    Floats x = reinterpret_cast<Floats>(xi | off), y = reinterpret_cast<Floats>(yi | off),
+           z = reinterpret_cast<Floats>(zi | off);
+    if (kTurned)
+    {
+      // Into the block frame (NaN stays NaN).
+      const Floats u = row_cos_ * x + row_sin_ * y;
+      y = row_cos_ * y - row_sin_ * x;
+      x = u;
+    }
     lx = x < lx ? x : lx, ly = y < ly ? y : ly, lz = z < lz ? z : lz;
     hx = x > hx ? x : hx, hy = y > hy ? y : hy, hz = z > hz ? z : hz;
   }
@@ -368,8 +388,12 @@ __attribute__((always_inline)) inline bool SelfFilter::forEachInside(std::size_t
   // active points, so that a point near one link is tested against that link, not all of them.
   std::int32_t any = 0;
   const std::size_t full = n - n % kMarkBlock;
-  for (std::size_t b0 = 0; b0 < full; b0 += kMarkBlock)
-    any |= markBlock(xs + b0, ys + b0, zs + b0, active + b0, b0, hit);
+  if (turned_)
+    for (std::size_t b0 = 0; b0 < full; b0 += kMarkBlock)
+      any |= markBlock<true>(xs + b0, ys + b0, zs + b0, active + b0, b0, hit);
+  else
+    for (std::size_t b0 = 0; b0 < full; b0 += kMarkBlock)
+      any |= markBlock<false>(xs + b0, ys + b0, zs + b0, active + b0, b0, hit);
   // The tail (fewer than kMarkBlock points): one point at a time, the same test.
   for (std::size_t i = full; i < n; ++i)
   {

@@ -31,7 +31,8 @@ SelfFilter makeSelfFilter(const SelfFilterParams& params, const ros::NodeHandle&
 /// Sets the poses of the filter's frames in `target` at `stamp` (one lookup per frame). Throws
 /// tf2::TransformException (naming the frames) when one is not there: a node waits for them as
 /// for its sensor's own transform (its tf message filter has the shape frames as targets too).
+/// `row_yaw`: SelfFilter::setFramePoses's.
 void setFramePosesAt(const tf2::BufferCore& buffer, const std::string& target, const ros::Time& stamp,
-                     SelfFilter& filter);
+                     SelfFilter& filter, double row_yaw = 0.0);
 
 }  // namespace laserscan_common
