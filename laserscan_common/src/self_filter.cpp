@@ -76,8 +76,7 @@ void SelfFilter::setFramePoses(const std::vector<Eigen::Isometry3d>& reference_T
   // micro-radian of the axes (the turn costs four vector operations per block).
   const double quarter = kPi / 2.0;
   double yaw = std::isfinite(row_yaw) ? row_yaw - quarter * std::round(row_yaw / quarter) : 0.0;
-  turned_ = std::abs(yaw) > 1e-6;
-  yaw = turned_ ? yaw : 0.0;
+  yaw = std::abs(yaw) > 1e-6 ? yaw : 0.0;
   row_cos_ = static_cast<float>(std::cos(yaw));
   row_sin_ = static_cast<float>(std::sin(yaw));
   // reference <- block, from the float cosine and sine markBlock uses, so that the boxes below

@@ -236,7 +236,7 @@ private:
   std::vector<PosedShape> posed_;
   std::vector<ShapeBoxLanes> box_lanes_;  ///< the shapes' culling boxes, 8 shapes per entry
   Bounds bounds_;
-  bool turned_ = false;  ///< the block frame is turned (row_yaw not a multiple of 90 degrees)
+  /// The block frame's turn (row_yaw modulo 90 degrees); row_sin_ is 0 exactly when not turned.
   float row_cos_ = 1.0f, row_sin_ = 0.0f;
 };
 
@@ -388,7 +388,7 @@ __attribute__((always_inline)) inline bool SelfFilter::forEachInside(std::size_t
   // active points, so that a point near one link is tested against that link, not all of them.
   std::int32_t any = 0;
   const std::size_t full = n - n % kMarkBlock;
-  if (turned_)
+  if (row_sin_ != 0.0f)
     for (std::size_t b0 = 0; b0 < full; b0 += kMarkBlock)
       any |= markBlock<true>(xs + b0, ys + b0, zs + b0, active + b0, b0, hit);
   else
