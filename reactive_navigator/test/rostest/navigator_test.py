@@ -187,28 +187,35 @@ class NavigatorTest(unittest.TestCase):
             step = self.step(wall_x=0.75)
             self.assertLess(step.twist.linear.x, 0.05)
 
+    def reported(self, key):
+        """The values of `key` in the diagnostics received since they were last cleared (call
+        with self.cond held)."""
+        return [v.value for a in self.diagnostics for st in a.status for v in st.values if v.key == key]
+
+    def step_until(self, found, **scene):
+        """Steps with `scene` (step()'s arguments) until found() (called with self.cond held)
+        returns something true, for at most 20 s (the diagnostics come every wall second);
+        returns its last result."""
+        deadline = time.monotonic() + 20.0
+        result = None
+        while time.monotonic() < deadline:
+            self.step(**scene)
+            with self.cond:
+                result = found()
+            if result:
+                break
+        return result
+
     def obstacle_points_reported(self, expected, clouds=(camera_cloud,)):
         """Steps with no wall (the scan adds no point) until a diagnostics report covers only them;
         asserts it counts `expected` obstacle points per step."""
+        key = 'obstacle points per step'
         with self.cond:
             del self.diagnostics[:]
-
-        def reported():
-            for array in self.diagnostics:
-                for status in array.status:
-                    values = {v.key: v.value for v in status.values}
-                    if values.get('obstacle points per step') == str(expected):
-                        return True
-            return False
-        deadline = time.monotonic() + 20.0  # the report comes every wall second
-        while time.monotonic() < deadline:
-            self.step(clouds=clouds)
-            with self.cond:
-                if reported():
-                    break
-        seen = [v.value for a in self.diagnostics for st in a.status for v in st.values
-                if v.key == 'obstacle points per step']
-        self.assertTrue(reported(), 'no report of %d obstacle points per step: %s' % (expected, seen))
+        found = self.step_until(lambda: str(expected) in self.reported(key), clouds=clouds)
+        with self.cond:
+            seen = self.reported(key)
+        self.assertTrue(found, 'no report of %d obstacle points per step: %s' % (expected, seen))
 
     def test_c_cloud_points_go_through_tf_and_the_height_band(self):
         self.obstacle_points_reported(IN_BAND)
@@ -257,21 +264,10 @@ class NavigatorTest(unittest.TestCase):
             self.step(**scene)
         with self.cond:
             del self.diagnostics[:]
-
-        def cells():
-            for array in self.diagnostics:
-                for status in array.status:
-                    values = {v.key: v.value for v in status.values}
-                    if 'planner obstacle cells' in values:
-                        return int(values['planner obstacle cells'])
-            return None
-        deadline = time.monotonic() + 20.0  # the report comes every wall second
-        while time.monotonic() < deadline:
-            self.step(**scene)
-            with self.cond:
-                if cells() is not None:
-                    return cells()
-        self.fail('no diagnostics report of the planner obstacle cells')
+        cells = self.step_until(lambda: self.reported('planner obstacle cells'), **scene)
+        if not cells:
+            self.fail('no diagnostics report of the planner obstacle cells')
+        return int(cells[0])
 
     def test_f_a_wall_seen_gone_leaves_the_planners_grid_and_the_cameras_cells_stay(self):
         camera_only = self.planner_cells()
