@@ -12,11 +12,13 @@ import random
 import shutil
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
 import threading
 import time
+from urllib.parse import urlparse
 from xmlrpc.client import ServerProxy
 
 import psutil
@@ -620,9 +622,6 @@ def call_set_bool(master, service, value, timeout=30.0):
     Debian packages the service's definition (ros-std-srvs), not its Python module, and rospy's
     client would tie the call to this process's node (refused once a session has shut it down).
     Returns the response's ``success``."""
-    import struct
-    from urllib.parse import urlparse
-
     def framed(fields):
         body = b"".join(struct.pack("<I", len(f)) + f for f in (("%s=%s" % kv).encode() for kv in fields))
         return struct.pack("<I", len(body)) + body
